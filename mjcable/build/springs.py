@@ -1,0 +1,123 @@
+"""``springs``: the thesis's elastic spring model (§2.2.3, §3.3) on MuJoCo.
+
+One body per particle with three slide joints (a point mass: a free joint's rotations would let a sphere roll
+without friction), joined by spatial-tendon springs between neighbours (stretch) and next neighbours (bending).
+
+Mapping from the physical cable:
+
+* mass: lumped particle masses (m/n inside, m/2n at the ends), as sphere geoms of the cable radius;
+* stretch: tendon stiffness k₁ = E·A / l₀, rest length l₀ (the equal chord);
+* bending: next-neighbour springs (rest length 2 l₀) are quartic in the bending angle θ, so they cannot match
+  E·I exactly; their stiffness k₂ = 16 E·I / (l₀³ θ_ref²) equates the spring energy with the rod's E·I θ²/(2 l₀)
+  at θ_ref = 1 rad. A qualitative bending model: use ``joints``, ``composite`` or ``flexrod`` for beams;
+* damping rate c (1/s): slide-joint damping c·mᵢ (implicit in MuJoCo's ``implicitfast``, and zero at rest);
+* **the stability rule**: MuJoCo integrates spring forces explicitly. Gershgorin's bound on M⁻¹K gives
+  ω²_max ≤ 4 (k₁ + k₂) n / m for lumped masses, and semi-implicit Euler needs ω_max·h < 2, i.e.
+  k₁ + k₂ < m / (n h²) with h MuJoCo's timestep. We use ``k₁ + k₂ = STABILITY_FRACTION · m / (n h²)``: an
+  inextensible cable (``stretch_stiffness=None``) gets the largest k₁ the rule allows; a stiffer E·A (or E·I) is
+  capped there with a warning. The static strain under tension T is then T / (k₁ l₀) ∝ h², which is why the model
+  defaults to 10 MuJoCo steps per ``dt``.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import mujoco
+import numpy as np
+
+from mjcable.build import world
+from mjcable.scene import Scene
+
+__all__ = ["build", "spring_stiffness", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE"]
+
+STABILITY_FRACTION = 0.25  # of the semi-implicit Euler limit k < m / (n h²); a chain just above it jitters
+BEND_REFERENCE_ANGLE = 1.0  # rad, where next-neighbour spring energy equals E·I θ² / (2 l₀)
+_AXES = np.eye(3)
+
+
+def spring_stiffness(scene: Scene, timestep: float) -> tuple:
+    """``(k_stretch, k_bend)`` in N/m for the cable at MuJoCo timestep ``timestep`` (see the module docstring)."""
+    cable = scene.cable
+    l0 = cable.segment_length
+    limit = STABILITY_FRACTION * cable.mass / (cable.n_segments * timestep**2)
+    k_bend = 16.0 * cable.bending_stiffness / (l0**3 * BEND_REFERENCE_ANGLE**2)
+    if k_bend > 0.5 * limit:
+        warnings.warn(f"springs: bending stiffness capped from {k_bend:.4g} to {0.5 * limit:.4g} N/m, the stable "
+                      f"limit at timestep {timestep:g} s; use more substeps for a stiffer cable", stacklevel=3)
+        k_bend = 0.5 * limit
+    k_stretch = limit - k_bend
+    if cable.stretch_stiffness is not None:
+        wanted = cable.stretch_stiffness / l0
+        if wanted > k_stretch:
+            warnings.warn(f"springs: stretch stiffness capped from {wanted:.4g} to {k_stretch:.4g} N/m, the stable "
+                          f"limit at timestep {timestep:g} s; use more substeps for a stiffer cable", stacklevel=3)
+        k_stretch = min(wanted, k_stretch)
+    return k_stretch, k_bend
+
+
+def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
+    spec = world.new_spec(scene, timestep=timestep)
+    cable = scene.cable
+    n = cable.n_particles
+    p = cable.particles
+    masses = cable.particle_masses
+    geom = world.cable_geom(scene, self_collision=self_collision)
+
+    # Where each particle hangs: the world (fixed), a gripper (welded to its mocap body), or free (slide joints).
+    parent = {}
+    for k, pin in enumerate(scene.pins):
+        held = [scene.pin_particle(k)] + ([scene.clamp_neighbour(k)] if pin.clamp else [])
+        if pin.kind == "gripper":
+            anchor = world.add_anchor(spec, scene, k)
+            body = spec.body(world.gripper_body(k))
+            for i in held:
+                parent[i] = body
+            del anchor
+        elif pin.kind == "world":
+            for i in held:
+                parent[i] = spec.worldbody
+        else:  # socket: free particles held by releasable equalities
+            world.add_anchor(spec, scene, k)
+    for i in range(n):
+        host = parent.get(i, spec.worldbody)
+        origin = np.zeros(3) if host is spec.worldbody else p[scene.pin_particle(_pin_of(scene, i))]
+        body = host.add_body(name=f"cable{i}", pos=p[i] - origin)
+        if i not in parent:
+            for axis in _AXES:
+                body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, damping=cable.damping * masses[i])
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[cable.radius, 0, 0], mass=masses[i], **geom)
+        body.add_site(name=world.particle_site(i))
+    for k, pin in enumerate(scene.pins):
+        if pin.kind != "socket":
+            continue
+        world.add_connect(spec, world.pin_equality(k), world.particle_site(scene.pin_particle(k)),
+                          world.anchor_site(k), timestep=timestep)
+        if pin.clamp:
+            j = scene.clamp_neighbour(k)
+            spec.worldbody.add_site(name=f"{world.anchor_site(k)}_clamp", pos=p[j])
+            world.add_connect(spec, world.pin_equality(k, clamp=True), world.particle_site(j),
+                              f"{world.anchor_site(k)}_clamp", timestep=timestep)
+
+    k_stretch, k_bend = spring_stiffness(scene, timestep)
+    l0 = cable.segment_length
+    for gap, k in ((1, k_stretch), (2, k_bend)):
+        if k <= 0.0:
+            continue
+        for i in range(n - gap):
+            tendon = spec.add_tendon(name=f"spring{gap}_{i}", stiffness=k, springlength=[gap * l0, gap * l0],
+                                     width=0.25 * cable.radius, rgba=[0.3, 0.3, 0.3, 0.0])
+            tendon.wrap_site(world.particle_site(i))
+            tendon.wrap_site(world.particle_site(i + gap))
+    if self_collision:
+        for i in range(n - 1):
+            spec.add_exclude(bodyname1=f"cable{i}", bodyname2=f"cable{i + 1}")
+    return spec
+
+
+def _pin_of(scene: Scene, i: int) -> int:
+    """Index into scene.pins of the gripper pin holding particle ``i`` (directly or as its clamp neighbour)."""
+    for k, pin in enumerate(scene.pins):
+        if pin.kind == "gripper" and (scene.pin_particle(k) == i or (pin.clamp and scene.clamp_neighbour(k) == i)):
+            return k
+    raise KeyError(i)  # pragma: no cover
