@@ -11,7 +11,7 @@ class SimulationDivergedError(RuntimeError):
 
     Attributes:
       model: name of the cable model (``"springs"``, ``"xpbd"``, ...).
-      step: index of the step (of size ``dt``) during which the divergence was detected.
+      step: number of the step of size ``dt`` (counting from 1) during which the divergence was detected.
       time: simulated time in seconds at detection.
       reason: short description of what was detected.
     """

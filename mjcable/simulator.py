@@ -21,12 +21,12 @@ __all__ = ["Simulator", "MAX_SPEED", "MAX_DISTANCE"]
 
 MAX_SPEED = 200.0  # m/s: a cable particle faster than this has diverged
 MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
-_DIVERGENCE_WARNINGS = {
-    mujoco.mjtWarning.mjWARN_BADQACC: "MuJoCo reset the state after a bad acceleration (mjWARN_BADQACC)",
-    mujoco.mjtWarning.mjWARN_BADQVEL: "bad velocity (mjWARN_BADQVEL)",
-    mujoco.mjtWarning.mjWARN_BADQPOS: "bad position (mjWARN_BADQPOS)",
-    mujoco.mjtWarning.mjWARN_CONTACTFULL: "contact buffer full (mjWARN_CONTACTFULL)",
-    mujoco.mjtWarning.mjWARN_CNSTRFULL: "constraint buffer full (mjWARN_CNSTRFULL)",
+_DIVERGENCE_WARNINGS = {  # int keys: index into data.warning
+    int(mujoco.mjtWarning.mjWARN_BADQACC): "MuJoCo reset the state after a bad acceleration (mjWARN_BADQACC)",
+    int(mujoco.mjtWarning.mjWARN_BADQVEL): "bad velocity (mjWARN_BADQVEL)",
+    int(mujoco.mjtWarning.mjWARN_BADQPOS): "bad position (mjWARN_BADQPOS)",
+    int(mujoco.mjtWarning.mjWARN_CONTACTFULL): "contact buffer full (mjWARN_CONTACTFULL)",
+    int(mujoco.mjtWarning.mjWARN_CNSTRFULL): "constraint buffer full (mjWARN_CNSTRFULL)",
 }
 _STEP_EPS = 1e-9  # fraction of dt forgiven when counting whole steps in an accumulated duration
 
@@ -59,7 +59,6 @@ class _NativeBackend:
                 ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c))
                        for c in (False, True)]
                 self._sockets.append((pin.release_force, [i for i in ids if i >= 0]))
-        self._warnings = self.mj_data.warning.number.copy()
 
     def step(self) -> Optional[str]:
         m, d = self.mj_model, self.mj_data
@@ -69,13 +68,11 @@ class _NativeBackend:
                 self._release_sockets()
         else:
             mujoco.mj_step(m, d, nstep=self.substeps)
-        counts = d.warning.number  # cumulative: one look per dt sees every warning of its substeps
-        if np.any(counts > self._warnings):
-            new = np.flatnonzero(counts > self._warnings)
-            self._warnings = counts.copy()
-            reasons = [_DIVERGENCE_WARNINGS[w] for w in new if w in _DIVERGENCE_WARNINGS]
-            if reasons:
-                return "; ".join(reasons)
+        counts = d.warning.number  # a writable view; MuJoCo's own reset zeroes it, so read and clear per dt
+        bad = [w for w in _DIVERGENCE_WARNINGS if counts[w] > 0]
+        if bad:
+            counts[bad] = 0
+            return "; ".join(_DIVERGENCE_WARNINGS[w] for w in bad)
         mujoco.mj_kinematics(m, d)  # xpos/site_xpos describe the previous state after mj_step
         return None
 

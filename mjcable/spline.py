@@ -25,6 +25,7 @@ _ARC_SUBDIVISIONS = 16  # Gauss-Legendre panels per Bézier piece for arc length
 _DENSE_SAMPLES = 64  # samples per piece used to bracket equal-chord roots
 _CHORD_XTOL = 1e-15
 _NEWTON_MAX_ITER = 100
+_CHORD_RTOL = 1e-9  # equal chords are promised to this relative accuracy
 _BRACKET_SHRINKS = (1e-3, 3e-2, 0.3, 0.9, 0.999)
 _ARC_MARGIN = 1e-9  # covers the quadrature error of the arc length on a straight curve
 
@@ -258,8 +259,12 @@ def resample(curve: CatmullRom, n_segments: int) -> np.ndarray:
     else:
         raise ValueError("could not resample the curve into equal chords; use fewer segments or smoother points")
     chord = optimize.toms748(residual, c_lo, c_hi, xtol=_CHORD_XTOL * c_hi, rtol=4 * np.finfo(float).eps)
-    ts, _ = _march(curve._bezier, chord, n - 1, t_dense, x_dense, _CHORD_XTOL, _NEWTON_MAX_ITER)
+    ts, made = _march(curve._bezier, chord, n - 1, t_dense, x_dense, _CHORD_XTOL, _NEWTON_MAX_ITER)
     particles = curve.position(ts)
     particles = np.concatenate([particles, end[None]])
     particles[0] = start
+    chords = np.linalg.norm(np.diff(particles, axis=0), axis=1)
+    if made < n - 1 or np.max(np.abs(chords / chord - 1.0)) > _CHORD_RTOL:
+        raise ValueError(f"could not resample the curve into n_segments={n} equal chords (it folds back on "
+                         "itself at this resolution); use more or fewer segments or other control points")
     return particles

@@ -184,7 +184,7 @@ def add_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position=None) -> str:
     if pin.kind == "gripper":
         body = spec.worldbody.add_body(name=gripper_body(k), pos=pos, mocap=True)
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[2.5 * scene.cable.radius, 0, 0], contype=0,
-                      conaffinity=0, material="gripper", group=1)
+                      conaffinity=0, density=0.0, material="gripper", group=1)  # visual only: no mass, no contacts
         body.add_site(name=name)
     else:
         spec.worldbody.add_site(name=name, pos=pos)

@@ -1,0 +1,19 @@
+"""Shared fixtures and independent references for the tests."""
+
+import numpy as np
+import pytest
+from scipy import optimize
+
+
+def catenary_at_arc(length: float, span: float, height: float, s: np.ndarray) -> np.ndarray:
+    """Points of the inextensible catenary of ``length`` hung between (−span/2, 0, height) and (span/2, 0, height),
+    at arc lengths ``s`` from the left end. Derived here, independent of mjcable: 2 a sinh(span / 2a) = length."""
+    a = optimize.brentq(lambda a: 2 * a * np.sinh(span / (2 * a)) - length, 1e-3 * span, 1e3 * span, xtol=1e-15)
+    x = a * np.arcsinh(s / a - np.sinh(span / (2 * a)))
+    z = height + a * (np.cosh(x / a) - np.cosh(span / (2 * a)))
+    return np.stack([x, np.zeros_like(x), z], axis=-1)
+
+
+@pytest.fixture
+def catenary():
+    return catenary_at_arc
