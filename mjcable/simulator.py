@@ -59,21 +59,37 @@ class _NativeBackend:
                 ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c))
                        for c in (False, True)]
                 self._sockets.append((pin.release_force, [i for i in ids if i >= 0]))
+        self._socket_pins = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]
+        self._gripper_from = {}  # mocap id -> its position at the start of the next step (grippers moved since)
 
     def step(self) -> Optional[str]:
         m, d = self.mj_model, self.mj_data
-        if self._sockets:
+        if self._gripper_from and self.substeps > 1:
+            # A moved gripper travels linearly over the substeps, as the particle backend's pins do: a jump at the
+            # first substep would inject energy into the stiff links holding its particle.
+            moved = list(self._gripper_from)
+            start = np.array([self._gripper_from[i] for i in moved])
+            target = d.mocap_pos[moved].copy()
+            for s in range(1, self.substeps + 1):
+                d.mocap_pos[moved] = start + (target - start) * (s / self.substeps)
+                mujoco.mj_step(m, d)
+                if self._sockets:
+                    self._release_sockets()
+        elif self._sockets:
             for _ in range(self.substeps):
                 mujoco.mj_step(m, d)
                 self._release_sockets()
         else:
             mujoco.mj_step(m, d, nstep=self.substeps)
+        self._gripper_from = {}
         counts = d.warning.number  # a writable view; MuJoCo's own reset zeroes it, so read and clear per dt
         bad = [w for w in _DIVERGENCE_WARNINGS if counts[w] > 0]
         if bad:
             counts[bad] = 0
             return "; ".join(_DIVERGENCE_WARNINGS[w] for w in bad)
         mujoco.mj_kinematics(m, d)  # xpos/site_xpos describe the previous state after mj_step
+        if m.nflex:
+            mujoco.mj_flex(m, d)  # flexvert_xpos too (rendering draws the flex from it)
         return None
 
     def _release_sockets(self) -> None:
@@ -91,7 +107,14 @@ class _NativeBackend:
         return self.mj_data.site_xpos[self._sites].copy()
 
     def move_gripper(self, k: int, position: np.ndarray) -> None:
-        self.mj_data.mocap_pos[self._mocap[k]] = position
+        i = self._mocap[k]
+        self._gripper_from.setdefault(i, self.mj_data.mocap_pos[i].copy())
+        self.mj_data.mocap_pos[i] = position
+
+    @property
+    def released(self) -> set:
+        """Pin numbers of the sockets that have let go."""
+        return {k for k, (_, ids) in zip(self._socket_pins, self._sockets) if not self.mj_data.eq_active[ids[0]]}
 
     @property
     def time(self) -> float:
@@ -193,8 +216,14 @@ class Simulator:
         if reason is not None:
             raise SimulationDivergedError(self.model, self._steps, self.time, reason)
 
+    @property
+    def released(self) -> frozenset:
+        """Pin numbers (indices into ``scene.pins``) of the sockets that have let go."""
+        return frozenset(self._backend.released)
+
     def move_gripper(self, pin_number: int, position) -> None:
-        """Move the gripper of ``scene.pins[pin_number]`` to ``position`` (3,), metres, world frame."""
+        """Move the gripper of ``scene.pins[pin_number]`` to ``position`` (3,), metres, world frame; it travels
+        there linearly over the next step's substeps."""
         grippers = self.scene.grippers
         if pin_number not in grippers:
             raise ValueError(f"pin_number must index a gripper pin, one of {grippers}, got {pin_number!r}")

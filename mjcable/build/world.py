@@ -43,6 +43,7 @@ _FLOOR_HALF_SIZE = 5.0  # m, rendered extent of a Floor plane
 _CAMERA_FOVY = 45.0  # degrees
 _CAMERA_MARGIN = 1.35  # frame the cable's bounding box with this much room
 _PIN_SOLREF_STEPS = 2.0  # equality time constant in physics steps (MuJoCo's stable minimum)
+_IMPRATIO = 10.0  # frictional-to-normal impedance ratio (MuJoCo's remedy for contact slip)
 PIN_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 
 
@@ -81,6 +82,8 @@ def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -
     spec.option.timestep = timestep
     spec.option.gravity = GRAVITY
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # with impratio: static friction holds without creep
+    spec.option.impratio = _IMPRATIO
     spec.visual.global_.offwidth = 1280
     spec.visual.global_.offheight = 720
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
