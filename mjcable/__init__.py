@@ -1,7 +1,13 @@
 """mjcable: cable, rope and wire scenes on MuJoCo, with MuJoCo's native cable models and our own
 Jakobsen/PBD/XPBD solvers compared head to head."""
 
-from mjcable import scenes
+import os
+
+# Offscreen rendering (mjcable.render, dm_control) on EGL unless the user chose otherwise. MuJoCo reads MUJOCO_GL when
+# it is first imported, so this must come before anything imports mujoco.
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from mjcable import scenes  # noqa: E402
 from mjcable.build import MODELS, NATIVE_MODELS, PARTICLE_MODELS, build
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Pin, Scene, Sphere

@@ -1,0 +1,247 @@
+"""The ``mjcable`` command: argument parsing only; the work is done by the library.
+
+Subcommands::
+
+    mjcable demo                                   side-by-side video of every available model on the table scene
+    mjcable render --scene S --model M -o out.mp4  one model (or several side by side, or "all") on a built-in scene
+    mjcable render --env TASK --model M --policy random -o out.mp4   an episode of a dm_control task (mjcable.envs)
+    mjcable export [--out models] [--check]        MJCF of every native model x built-in scene
+    mjcable bench [--quick] [--out DIR] [--jobs N] [--models ...]   work-precision benchmarks (mjcable.bench)
+    mjcable stress [--quick] [--out DIR] [--jobs N] [--models ...]  stability stress tests (mjcable.bench)
+
+Exit status: 0 on success, 1 when some model failed (the rest still ran), 2 on bad arguments.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+__all__ = ["main", "build_parser", "DEMO_FILE", "DEMO_SCENE"]
+
+DEMO_FILE = "mjcable-demo.mp4"
+DEMO_SCENE = "table"
+DEMO_SECONDS = 3.0  # s of video: well under 5 minutes of rendering for all seven models on 2 CPU cores
+DEMO_TILE = (320, 240)  # pixels per tile (width, height)
+RENDER_SIZE = (640, 480)  # pixels (width, height) of `mjcable render` with one model
+GRID_TILE = (320, 240)  # pixels per tile of `mjcable render` with several models
+DEFAULT_DT = 0.002  # s, the Simulator's default
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``mjcable`` command."""
+    from mjcable import MODELS, __version__, scenes
+
+    parser = argparse.ArgumentParser(prog="mjcable", description="Cable scenes on MuJoCo: native cable models and "
+                                     "Jakobsen/PBD/XPBD solvers, simulated, rendered and compared.")
+    parser.add_argument("--version", action="version", version=f"mjcable {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    demo = sub.add_parser("demo", help="side-by-side video of every available model on the table scene",
+                          description="Render every available cable model on the 'table' scene side by side into an "
+                                      f"MP4 in the current folder ({DEMO_FILE}) and print its path.")
+    demo.add_argument("-o", "--out", default=DEMO_FILE, help=f"video file (default: ./{DEMO_FILE})")
+    demo.add_argument("--seconds", type=_positive_float, default=DEMO_SECONDS, help=argparse.SUPPRESS)
+    demo.add_argument("--fps", type=_positive_int, default=30, help=argparse.SUPPRESS)
+    demo.add_argument("--width", type=_positive_int, default=DEMO_TILE[0], help=argparse.SUPPRESS)
+    demo.add_argument("--height", type=_positive_int, default=DEMO_TILE[1], help=argparse.SUPPRESS)
+    demo.set_defaults(func=_demo)
+
+    render = sub.add_parser("render", help="render a scene (or a dm_control task) to MP4",
+                            description="Render one model, or several side by side, on a built-in scene; or record "
+                                        "an episode of a dm_control task from mjcable.envs.")
+    source = render.add_mutually_exclusive_group(required=True)
+    source.add_argument("--scene", choices=scenes.names(), help="built-in scene")
+    source.add_argument("--env", metavar="TASK", help="dm_control task of mjcable.envs (e.g. reach_sag)")
+    render.add_argument("--model", nargs="+", required=True, metavar="MODEL",
+                        help=f"one or more of {', '.join(MODELS)}, or 'all' (every available model); several "
+                             "models are rendered side by side")
+    render.add_argument("-o", "--out", required=True, help="video file (.mp4)")
+    render.add_argument("--seconds", type=_positive_float, default=5.0, help="simulated seconds (default 5)")
+    render.add_argument("--fps", type=_positive_int, default=30, help="frames per second (default 30)")
+    render.add_argument("--width", type=_positive_int, default=None,
+                        help=f"width in pixels, per tile (default {RENDER_SIZE[0]}, or {GRID_TILE[0]} side by side)")
+    render.add_argument("--height", type=_positive_int, default=None,
+                        help=f"height in pixels, per tile (default {RENDER_SIZE[1]}, or {GRID_TILE[1]} side by side)")
+    render.add_argument("--dt", type=_positive_float, default=None,
+                        help=f"simulation step in seconds (default {DEFAULT_DT}; for --env, the task's)")
+    render.add_argument("--camera", default="track",
+                        help="'track' (follows the cable, default) or a camera of the model, e.g. 'overview'")
+    render.add_argument("--policy", choices=("random", "zero"), default="random", help="policy for --env (default "
+                        "random)")
+    render.add_argument("--seed", type=int, default=None, help="seed for --env")
+    render.set_defaults(func=_render)
+
+    export = sub.add_parser("export", help="write the MJCF of every native model x built-in scene",
+                            description="Write models/{scene}_{model}.xml for every native model and built-in scene.")
+    export.add_argument("--out", default="models", help="folder (default: models)")
+    export.add_argument("--check", action="store_true", help="also load every file with MuJoCo and dm_control and "
+                        "step it 2 s, failing on MuJoCo warnings")
+    export.set_defaults(func=_export)
+
+    for name, helptext in (("bench", "work-precision benchmarks of all models (mjcable.bench)"),
+                           ("stress", "stability stress tests of all models (mjcable.bench)")):
+        # The flags of mjcable.bench.add_arguments, declared here so that mjcable.bench is imported only when used.
+        p = sub.add_parser(name, help=helptext, description=helptext)
+        p.add_argument("--quick", action="store_true", help="reduced sweep")
+        p.add_argument("--out", default=None, help=f"output folder (default: {name}_out)")
+        p.add_argument("--jobs", type=_positive_int, default=None, help="worker processes (default: CPU count)")
+        p.add_argument("--models", nargs="+", default=None, metavar="MODEL", help="model labels to run (default all)")
+        p.set_defaults(func=_bench_command(name))
+    return parser
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the ``mjcable`` command with ``argv`` (default: ``sys.argv[1:]``); returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except ValueError as exc:  # the library's validation: a usage error
+        parser.exit(EXIT_USAGE, f"mjcable {args.command}: error: {exc}\n")
+
+
+def _report_problems(problems: dict) -> None:
+    for model, exc in problems.items():
+        print(f"mjcable: model {model!r} failed and was left out: {type(exc).__name__}: {exc}", file=sys.stderr)
+
+
+def _demo(args) -> int:
+    from mjcable import render
+
+    out = Path(args.out)
+    start = time.perf_counter()
+    models, problems = render.available_models(DEMO_SCENE)
+    _report_problems(problems)
+    if not models:
+        print("mjcable demo: no model is available", file=sys.stderr)
+        return EXIT_FAILED
+    print(f"mjcable demo: rendering {', '.join(models)} on the {DEMO_SCENE!r} scene ({args.seconds:g} s)",
+          file=sys.stderr)
+    path = render.render_grid(DEMO_SCENE, models, out, seconds=args.seconds, fps=args.fps, tile_width=args.width,
+                              tile_height=args.height)
+    print(f"mjcable demo: done in {time.perf_counter() - start:.1f} s", file=sys.stderr)
+    print(path.resolve())
+    return EXIT_FAILED if problems else EXIT_OK
+
+
+def _render(args) -> int:
+    from mjcable import MODELS, render
+
+    if args.env is not None:
+        return _render_env(args)
+    models = list(args.model)
+    problems = {}
+    dt = DEFAULT_DT if args.dt is None else args.dt
+    if models == ["all"]:
+        models, problems = render.available_models(args.scene, dt=dt)
+        _report_problems(problems)
+        if not models:
+            print("mjcable render: no model is available", file=sys.stderr)
+            return EXIT_FAILED
+    bad = [m for m in models if m not in MODELS]
+    if bad:
+        raise ValueError(f"--model must be 'all' or names from {MODELS}, got {bad}")
+    width, height = _size(args, RENDER_SIZE if len(models) == 1 else GRID_TILE)
+    if len(models) == 1:
+        path = render.render_video(args.scene, models[0], args.out, seconds=args.seconds, fps=args.fps,
+                                   width=width, height=height, dt=dt, camera=args.camera)
+    else:
+        path = render.render_grid(args.scene, models, args.out, seconds=args.seconds, fps=args.fps,
+                                  tile_width=width, tile_height=height, dt=dt, camera=args.camera)
+    print(path.resolve())
+    return EXIT_FAILED if problems else EXIT_OK
+
+
+def _render_env(args) -> int:
+    from mjcable import render
+
+    if len(args.model) != 1 or args.model[0] == "all":
+        raise ValueError(f"--env takes exactly one --model, got {args.model}")
+    envs = _optional_module("mjcable.envs", "environments (--env)")
+    if envs is None or not hasattr(envs, "load"):
+        if envs is not None:
+            print("mjcable: environments (--env) need mjcable.envs.load, which is not available yet", file=sys.stderr)
+        return EXIT_FAILED
+    settings = {} if args.dt is None else {"dt": args.dt}
+    env = envs.load(args.env, args.model[0], random=args.seed, **settings)
+    camera = "overview" if args.camera == "track" else args.camera
+    width, height = _size(args, RENDER_SIZE)
+    path = render.render_env(env, args.out, seconds=args.seconds, fps=args.fps, width=width, height=height,
+                             camera=camera, policy=args.policy, seed=args.seed)
+    print(path.resolve())
+    return EXIT_OK
+
+
+def _size(args, default) -> tuple:
+    return (default[0] if args.width is None else args.width, default[1] if args.height is None else args.height)
+
+
+def _export(args) -> int:
+    from mjcable import export
+
+    written, skipped = export.export(args.out)
+    for model, exc in skipped.items():
+        print(f"mjcable export: model {model!r} is not available yet ({type(exc).__name__}: {exc})", file=sys.stderr)
+    failed = 0
+    for path in written:
+        if args.check:
+            try:
+                export.check_file(path)
+            except RuntimeError as exc:
+                failed += 1
+                print(f"mjcable export: check failed: {exc}", file=sys.stderr)
+                continue
+        print(path)
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def _bench_command(name: str) -> Callable[[argparse.Namespace], int]:
+    def run(args) -> int:
+        bench = _optional_module("mjcable.bench", f"'mjcable {name}'")
+        if bench is None:
+            return EXIT_FAILED
+        result = getattr(bench, f"cli_{name}")(args)
+        return EXIT_OK if result is None else int(result)
+
+    return run
+
+
+def _optional_module(name: str, what: str):
+    """Import ``name`` lazily; if it is not there (yet), say so and return None."""
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and name.startswith(exc.name):  # the module itself is missing, not a dependency
+            print(f"mjcable: {what} need {name}, which is not available in this installation", file=sys.stderr)
+            return None
+        raise
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

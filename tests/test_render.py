@@ -1,0 +1,215 @@
+"""Video rendering: frames show the cable and its motion, MP4s are written atomically, arguments are validated."""
+
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import mjcable
+from mjcable import io, render
+from mjcable.errors import SimulationDivergedError
+
+SMALL = dict(width=96, height=72)
+
+
+def cable_mask(image: np.ndarray) -> np.ndarray:
+    """Pixels of the cable's orange-red (build/world.py's "cable" material): red well above green and blue."""
+    rgb = image.astype(np.int32)
+    return (rgb[..., 0] > 120) & (rgb[..., 0] - rgb[..., 1] > 60) & (rgb[..., 0] - rgb[..., 2] > 60)
+
+
+def test_frames_show_the_cable_falling():
+    """A straight cable released above a peg falls: with the fixed overview camera its pixels move down the image."""
+    seconds, fps = 0.3, 10
+    video = render.frames("drape", "springs", seconds=seconds, fps=fps, camera="overview", **SMALL)
+    assert video.shape == (round(seconds * fps), SMALL["height"], SMALL["width"], 3)
+    assert video.dtype == np.uint8
+    for image in video:
+        assert image.std() > 10.0  # not blank
+        assert cable_mask(image).sum() > 20  # the cable is there
+    rows = [np.nonzero(cable_mask(image))[0].mean() for image in video]
+    # Free fall of 0.1 m before the peg: the cable's image moves down (rows grow downwards).
+    assert rows[-1] > rows[0] + 1.0
+    assert np.abs(video[-1].astype(int) - video[0].astype(int)).mean() > 0.5
+
+
+def test_tracking_camera_frames_the_cable_large():
+    image = render.frames("table", "springs", seconds=0.1, fps=10, width=160, height=120)[0]
+    cols = np.nonzero(cable_mask(image).any(axis=0))[0]
+    rows = np.nonzero(cable_mask(image).any(axis=1))[0]
+    assert cols.size and rows.size
+    # The cable's extent spans at least half of the frame's width, and it is in the middle of it.
+    assert cols.max() - cols.min() > 0.5 * image.shape[1]
+    assert abs(0.5 * (cols.max() + cols.min()) - 0.5 * image.shape[1]) < 0.15 * image.shape[1]
+
+
+def test_render_video_writes_a_readable_mp4_atomically(tmp_path):
+    path = tmp_path / "hang.mp4"
+    out = render.render_video("hang", "springs", path, seconds=0.2, fps=15, **SMALL)
+    assert out == path and path.is_file()
+    video, fps = render.read_video(path)
+    assert fps == pytest.approx(15.0)
+    assert video.shape == (3, SMALL["height"], SMALL["width"], 3)
+    assert video.std() > 10.0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hang.mp4"]  # no temporary files left
+
+
+def test_failed_write_leaves_destination_and_no_temp_files(tmp_path):
+    path = tmp_path / "video.mp4"
+    path.write_bytes(b"old")
+
+    def broken():
+        yield np.zeros((16, 16, 3), np.uint8)
+        raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError, match="boom"):
+        render.write_video(path, broken(), fps=10, shape=(16, 16))
+    assert path.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["video.mp4"]
+
+
+def test_atomic_write_text(tmp_path):
+    path = tmp_path / "a.txt"
+    with io.atomic_write(path) as f:
+        f.write("hello")
+        assert not path.exists()  # nothing visible until complete
+    assert path.read_text() == "hello"
+    with pytest.raises(KeyError):
+        with io.atomic_write(path) as f:
+            f.write("half")
+            raise KeyError("interrupted")
+    assert path.read_text() == "hello"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(io.TEMP_PREFIX)]
+
+
+def test_grid_tiles_and_labels():
+    models = ["springs", "flexrod"]
+    video = render.grid_frames("table", models, seconds=0.1, fps=10, tile_width=96, tile_height=72)
+    assert video.shape == (1, 72, 2 * 96, 3)
+    for c in range(2):
+        tile = video[0, :, c * 96:(c + 1) * 96]
+        assert cable_mask(tile).sum() > 20
+        label = tile[:12, :40]  # white label text on a dark box, top left
+        assert (label.min(axis=-1) > 200).sum() > 5 and (label.max(axis=-1) < 120).sum() > 20
+
+
+class _DivergingSimulator(mjcable.Simulator):
+    """A Simulator whose springs model 'diverges' after 0.1 s (to test the grid, not the physics)."""
+
+    def step(self, seconds=None):
+        super().step(seconds)
+        if self.model == "springs" and self.time > 0.1:
+            raise SimulationDivergedError(self.model, self.steps, self.time, "test divergence")
+
+
+def test_diverged_tile_freezes_while_others_go_on(monkeypatch):
+    monkeypatch.setattr(render, "Simulator", _DivergingSimulator)
+    w, h = 96, 72
+    video = render.grid_frames("drape", ["springs", "flexrod"], seconds=0.5, fps=10, tile_width=w, tile_height=h,
+                               camera="overview")
+    diverged, live = video[:, :, :w], video[:, :, w:]
+    # After divergence (frame 2, t = 0.2 s) the springs tile is frozen and darkened; the flexrod tile still moves.
+    assert np.array_equal(diverged[2], diverged[-1])
+    assert diverged[2].mean() < 0.7 * diverged[1].mean()
+    assert not np.array_equal(live[2], live[-1])
+
+
+class _RecordingSimulator(mjcable.Simulator):
+    calls = []
+
+    def step(self, seconds=None):
+        type(self).calls.append(seconds)
+        super().step(seconds)
+
+
+def test_frames_step_the_simulation_by_one_frame_period(monkeypatch):
+    monkeypatch.setattr(render, "Simulator", _RecordingSimulator)
+    _RecordingSimulator.calls = []
+    render.frames("hang", "springs", seconds=0.2, fps=25, dt=0.003, **SMALL)
+    assert _RecordingSimulator.calls == [pytest.approx(1 / 25)] * 4  # 5 frames: the first shows t = 0
+
+
+class _UnwrittenSimulator(mjcable.Simulator):
+    def __init__(self, scene, model, **kwargs):
+        if model == "pbd":
+            raise NotImplementedError("not yet")
+        if model == "xpbd":
+            raise RuntimeError("a bug")
+        super().__init__(scene, model, **kwargs)
+
+
+def test_available_models_leaves_out_unwritten_and_reports_bugs(monkeypatch):
+    monkeypatch.setattr(render, "Simulator", _UnwrittenSimulator)
+    models, problems = render.available_models("hang", models=("springs", "pbd", "xpbd"))
+    assert models == ("springs",)
+    assert list(problems) == ["xpbd"] and isinstance(problems["xpbd"], RuntimeError)
+
+
+def test_every_model_is_available_on_the_demo_scene():
+    models, problems = render.available_models("table")
+    assert problems == {}
+    assert "springs" in models
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(seconds=0), "seconds"),
+    (dict(seconds=-1.0), "seconds"),
+    (dict(seconds=math.nan), "seconds"),
+    (dict(seconds=1e9), "seconds"),
+    (dict(fps=0), "fps"),
+    (dict(fps=2.5), "fps"),
+    (dict(fps=1000), "fps"),
+    (dict(width=97), "width"),
+    (dict(width=8), "width"),
+    (dict(height=10000), "height"),
+    (dict(camera=""), "camera"),
+    (dict(camera="nope"), "camera"),
+    (dict(elevation=120.0), "elevation"),
+    (dict(min_cable_px=-1.0), "min_cable_px"),
+    (dict(progress="yes"), "progress"),
+    (dict(label=3), "label"),
+])
+def test_frames_rejects_bad_arguments(kwargs, name):
+    args = dict(seconds=0.1, **SMALL)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=name):
+        render.frames("hang", "springs", **args)
+
+
+def test_bad_scene_model_and_path(tmp_path):
+    with pytest.raises(ValueError, match="scene"):
+        render.frames("nowhere", "springs", seconds=0.1)
+    with pytest.raises(ValueError, match="model"):
+        render.frames("hang", "verlet", seconds=0.1)
+    with pytest.raises(ValueError, match="mp4"):
+        render.render_video("hang", "springs", tmp_path / "x.avi", seconds=0.1)
+    with pytest.raises(ValueError, match="folder"):
+        render.render_video("hang", "springs", tmp_path / "missing" / "x.mp4", seconds=0.1)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(models=[]), "models"),
+    (dict(models="springs"), "models"),
+    (dict(models=["springs", "springs"]), "models"),
+    (dict(models=["springs", "verlet"]), "model"),
+    (dict(columns=0), "columns"),
+    (dict(columns=3), "columns"),
+    (dict(settings={"joints": {}}), "settings"),
+    (dict(tile_width=33), "width"),
+])
+def test_grid_rejects_bad_arguments(kwargs, name):
+    args = dict(models=["springs", "flexrod"], seconds=0.1, tile_width=32, tile_height=32)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=name):
+        render.grid_frames("hang", **args)
+
+
+def test_import_sets_egl_when_unset():
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    code = "import os, mjcable; print(os.environ['MUJOCO_GL'])"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "egl"
