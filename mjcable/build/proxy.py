@@ -1,0 +1,100 @@
+"""The particle solvers' proxy: the scene's world plus one capsule per cable segment, for contacts and rendering.
+
+The particle solvers (``jakobsen``, ``pbd``, ``xpbd``) integrate the cable themselves; MuJoCo only sees its
+proxy. Each segment is a mocap body ``segment{i}`` holding a capsule geom ``segment{i}`` (radius: the cable's,
+half-length l₀/2) and the site ``particle{i}`` at its start (the last segment also holds ``particle{n}``); the
+solver writes the capsules' poses from its particles every step, and ``mj_kinematics`` + ``mj_collision`` give
+the contacts with the obstacles.
+
+Mocap bodies get no contacts with static geoms (MuJoCo skips pairs of bodies that cannot move), so every capsule
+is paired with every obstacle geom (``obstacle{i}``) by an explicit ``<pair>``. The alternative, one free-joint
+body per segment, lets MuJoCo's broadphase find the pairs. Measured with ``scripts/bench_solvers.py --proxy``
+(table scene, 100 segments, mujoco 3.17, this project's shared 2-core machine, best of 5): ``mj_collision`` takes
+58 µs with pairs and 83 µs with free joints while the cable lies on the table (200 contacts), and 40 µs vs 30 µs
+with the cable in the air. The solvers skip the query altogether while the cable's bounding box touches no
+obstacle's, so the query runs only near contact, where pairs are faster: pairs it is.
+
+Gripper pins get their mocap body ``gripper{k}`` (and world/socket pins their anchor site) from
+:func:`mjcable.build.world.add_anchor`, as in the native models.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from mjcable.build import world
+from mjcable.scene import Scene
+
+__all__ = ["build", "segment_name", "PROXY_KINDS"]
+
+PROXY_KINDS = ("pairs", "free")  # "free" exists for the measurement above; the solvers use "pairs"
+
+
+def segment_name(i: int) -> str:
+    """Name of the mocap body and capsule geom of cable segment ``i``."""
+    return f"segment{i}"
+
+
+def build(scene: Scene, *, dt: float, proxy: str = "pairs", **settings) -> mujoco.MjSpec:
+    """The proxy spec of ``scene`` for the particle solvers.
+
+    Args:
+      scene: the scene.
+      dt: the simulator's step in seconds (MuJoCo's timestep; MuJoCo never steps the proxy).
+      proxy: ``"pairs"`` (mocap capsules with explicit pairs, used by the solvers) or ``"free"`` (free-joint
+        capsules found by MuJoCo's broadphase; for measurements).
+      **settings: the particle solvers' settings (:class:`mjcable.solvers.SolverSettings`), validated here against
+        every particle model's settings; which settings apply to which model is checked by the solver. Only
+        ``contact_margin`` shapes the spec (the pairs' initial margin; the solver sets the margin every step).
+
+    Returns:
+      An uncompiled ``mujoco.MjSpec``.
+
+    Example::
+
+        spec = mjcable.build(mjcable.scenes.get("table"), "xpbd")
+        model = spec.compile()
+    """
+    from mjcable.solvers.settings import MODEL_SETTINGS, SolverSettings  # late: solvers import mjcable.build
+
+    allowed = sorted(set().union(*MODEL_SETTINGS.values()))
+    unknown = sorted(set(settings) - set(allowed))
+    if unknown:
+        raise ValueError(f"unknown setting(s) {unknown} for the particle models; allowed: {allowed}")
+    if proxy not in PROXY_KINDS:
+        raise ValueError(f"proxy must be one of {PROXY_KINDS}, got {proxy!r}")
+    s = SolverSettings(**settings)
+
+    spec = world.new_spec(scene, timestep=dt)
+    cable = scene.cable
+    p = cable.particles
+    half = 0.5 * cable.segment_length
+    geom = world.cable_geom(scene)
+    n = cable.n_segments
+    for i in range(n):
+        d = p[i + 1] - p[i]
+        name = segment_name(i)
+        body = spec.worldbody.add_body(name=name, pos=0.5 * (p[i] + p[i + 1]), quat=_z_to(d), mocap=proxy == "pairs")
+        if proxy == "free":
+            body.add_freejoint()
+        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[cable.radius, half, 0.0],
+                      margin=s.contact_margin, **geom)
+        body.add_site(name=world.particle_site(i), pos=[0.0, 0.0, -half])
+        if i == n - 1:
+            body.add_site(name=world.particle_site(n), pos=[0.0, 0.0, half])
+    if proxy == "pairs":
+        for k in range(len(scene.obstacles)):
+            for i in range(n):
+                spec.add_pair(geomname1=f"obstacle{k}", geomname2=segment_name(i), condim=3, margin=s.contact_margin)
+    for k in range(len(scene.pins)):
+        world.add_anchor(spec, scene, k)
+    return spec
+
+
+def _z_to(d: np.ndarray) -> np.ndarray:
+    """Quaternion (w, x, y, z) turning +z onto the direction of ``d``."""
+    d = d / np.linalg.norm(d)
+    q = np.array([1.0 + d[2], -d[1], d[0], 0.0])
+    norm = np.linalg.norm(q)
+    return np.array([0.0, 1.0, 0.0, 0.0]) if norm < 1e-9 else q / norm

@@ -1,0 +1,83 @@
+"""Contacts of the particle cable with the MuJoCo scene, through MuJoCo's own collision pipeline.
+
+Once per step the proxy capsules (one per segment, posed from the particles) go through ``mj_collision`` with a
+margin that covers the distance the cable can travel in one step; each contact becomes a half-space constraint on
+the segment's axis point at fraction s, n·((1 − s) xᵢ + s x_{i+1}) >= n·q + radius, re-projected in every substep
+and iteration (:func:`mjcable.solvers.kernels.contact_sweep`). While the cable's bounding box touches no
+obstacle's, the query is skipped.
+
+MuJoCo's contact (read in :func:`mjcable.solvers.kernels.contacts_from_mujoco`): ``dist`` (negative in
+penetration), ``pos`` (midway between the surfaces), ``frame[:3]`` (the normal from ``geom[0]`` to ``geom[1]``).
+With n the normal pointing from the obstacle to the cable, the obstacle's surface point is q = pos − (dist/2) n and
+the capsule's axis point pos + (dist/2 + radius) n.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from mjcable.scene import Scene
+from mjcable.solvers import kernels
+
+__all__ = ["ObstacleContacts"]
+
+
+class ObstacleContacts:
+    """Queries cable-obstacle contacts from the compiled proxy model.
+
+    Args:
+      scene: the scene.
+      model, data: the compiled proxy (``mjcable.build.proxy``) and its data, kinematics current.
+      segment_geoms: ``(n_segments,)`` geom ids of the proxy capsules.
+    """
+
+    def __init__(self, scene: Scene, model: mujoco.MjModel, data: mujoco.MjData, segment_geoms: np.ndarray):
+        self.model, self.data = model, data
+        self.radius = scene.cable.radius
+        self.obstacle_geoms = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obstacle{k}")
+                                        for k in range(len(scene.obstacles))], dtype=np.int64)
+        self.segment_of_geom = np.full(model.ngeom, -1, dtype=np.int64)
+        self.segment_of_geom[segment_geoms] = np.arange(len(segment_geoms))
+        self._margin = None
+        # Static obstacles: world bounding boxes, planes as half-spaces (normal, point).
+        planes = model.geom_type[self.obstacle_geoms] == mujoco.mjtGeom.mjGEOM_PLANE
+        self._plane_n = np.ascontiguousarray(data.geom_xmat[self.obstacle_geoms[planes]].reshape(-1, 3, 3)[:, :, 2])
+        self._plane_p = np.ascontiguousarray(data.geom_xpos[self.obstacle_geoms[planes]])
+        boxes = self.obstacle_geoms[~planes]
+        rot = data.geom_xmat[boxes].reshape(-1, 3, 3)
+        aabb = model.geom_aabb[boxes]
+        center = data.geom_xpos[boxes] + np.einsum("kij,kj->ki", rot, aabb[:, :3])
+        half = np.einsum("kij,kj->ki", np.abs(rot), aabb[:, 3:])
+        self._box_lo, self._box_hi = np.ascontiguousarray(center - half), np.ascontiguousarray(center + half)
+        self._seg = np.zeros(0, dtype=np.int64)
+        self._geo = np.zeros((0, 6))
+        self._lam = np.zeros((0, 2))
+
+    def touching(self, x: np.ndarray, reach: float) -> bool:
+        """Whether the bounding box of particles ``x`` (n, 3), grown by ``reach`` metres, touches any obstacle's."""
+        return kernels.touches_obstacles(x, reach, self._box_lo, self._box_hi, self._plane_n, self._plane_p)
+
+    def query(self, x: np.ndarray, margin: float, out: kernels.Contacts) -> kernels.Contacts:
+        """Contacts of the proxy capsules (posed from ``x`` (n + 1, 3) beforehand) closer than ``margin`` metres.
+
+        Returns:
+          ``out`` with its obstacle-contact arrays replaced by views of this query's buffers: segment (C,),
+          [s, n, offset, μ] (C, 6), multipliers (C, 2).
+        """
+        m, d = self.model, self.data
+        if margin != self._margin:
+            m.pair_margin[:] = margin
+            self._margin = margin
+        mujoco.mj_collision(m, d)
+        ncon = d.ncon
+        if ncon > len(self._seg):
+            self._seg = np.zeros(2 * ncon, dtype=np.int64)
+            self._geo = np.zeros((2 * ncon, 6))
+            self._lam = np.zeros((2 * ncon, 2))
+        count = 0
+        if ncon:
+            con = d.contact
+            count = kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
+                                                 m.geom_friction, x, self.radius, self._seg, self._geo)
+        return out._replace(seg=self._seg[:count], geo=self._geo[:count], lam=self._lam[:count])

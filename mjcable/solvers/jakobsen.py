@@ -1,0 +1,30 @@
+"""``jakobsen``: Jakobsen's Verlet relaxation ("Advanced Character Physics", 2001), as in the thesis §3.4.1.
+
+Verlet integration x′ = x + e^{−c h}(x − x*) + g h² (thesis Eq. 2.7 with Jakobsen's damping, as a rate c in 1/s
+that multiplies the velocity only, never gravity), started from the exact previous position x* = x₀ + ½ g h² so
+that free fall is exact. Then ``iterations`` relaxation sweeps over the sticks with mass-weighted corrections
+(Jakobsen's ``invmass`` form), each scaled by ``stiffness`` k ∈ [0, 1] as is (no iteration correction: stiffness
+grows with iterations and with smaller steps, the thesis's accuracy- and timescale-stiffness effects).
+``sqrt_approx`` replaces the square root by its first-order Taylor expansion at the rest length.
+
+Bending as for ``pbd`` (curvature with a stiffness derived from E·I, or the (i, i+2) support stick); clamps hold
+the tangent rigidly; contacts move the segment's two particles with Jakobsen's weights (1 − s, s); the cable's
+E·A is not used.
+"""
+
+from __future__ import annotations
+
+from mjcable.scene import Scene
+from mjcable.solvers.pbd import bending_rules
+from mjcable.solvers.settings import SolverSettings
+from mjcable.solvers.state import Rules
+
+__all__ = ["rules"]
+
+
+def rules(scene: Scene, settings: SolverSettings, h: float) -> Rules:
+    """Jakobsen's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
+    bending, k_bend = bending_rules("jakobsen", scene, settings, h)
+    return Rules(verlet_start=True, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0,
+                 k_stretch=float(settings.stiffness), k_bend=k_bend, k_clamp=1.0, bending=bending,
+                 sqrt_approx=settings.sqrt_approx)

@@ -1,0 +1,180 @@
+"""Speed of the particle solvers: XPBD's substep against a minimal scalar numba Gauss-Seidel loop, and the table
+scene's step with contacts, split into MuJoCo's contact query and the projection.
+
+Usage::
+
+    python scripts/bench_solvers.py            # the two measurements
+    python scripts/bench_solvers.py --proxy    # also: explicit pairs vs free-joint proxies in mj_collision
+
+Every number is the minimum over ``--repeats`` runs (the machine may be shared); numba compile time is excluded
+(warm-up calls first; kernels are cached on disk).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import mujoco
+import numba
+import numpy as np
+
+import mjcable
+from mjcable.build import proxy
+from mjcable.solvers import kernels
+
+GRAVITY_Z = -9.81
+
+
+@numba.njit(cache=True)
+def minimal_gauss_seidel(x, v, x0, w, rest, h, n_sub):
+    """The smallest useful XPBD/PBD substep for a chain (α = 0, 1 iteration): predict, one Gauss-Seidel sweep of
+    mass-weighted distance projections, velocity update. Scalar code, nothing else."""
+    n = x.shape[0]
+    for _ in range(n_sub):
+        for i in range(n):
+            x0[i, 0], x0[i, 1], x0[i, 2] = x[i, 0], x[i, 1], x[i, 2]
+            if w[i] > 0.0:
+                v[i, 2] += GRAVITY_Z * h
+                x[i, 0] += h * v[i, 0]
+                x[i, 1] += h * v[i, 1]
+                x[i, 2] += h * v[i, 2]
+        for i in range(n - 1):
+            dx, dy, dz = x[i, 0] - x[i + 1, 0], x[i, 1] - x[i + 1, 1], x[i, 2] - x[i + 1, 2]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            wsum = w[i] + w[i + 1]
+            if wsum == 0.0:
+                continue
+            s = (rest - length) / (wsum * length)
+            x[i, 0] += w[i] * s * dx
+            x[i, 1] += w[i] * s * dy
+            x[i, 2] += w[i] * s * dz
+            x[i + 1, 0] -= w[i + 1] * s * dx
+            x[i + 1, 1] -= w[i + 1] * s * dy
+            x[i + 1, 2] -= w[i + 1] * s * dz
+        for i in range(n):
+            for c in range(3):
+                v[i, c] = (x[i, c] - x0[i, c]) / h
+
+
+def _best(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def _per_call(fn, calls: int, repeats: int) -> float:
+    return _best(lambda: [fn() for _ in range(calls)], repeats) / calls
+
+
+def bench_substep(repeats: int, batch: int = 2000) -> dict:
+    """One XPBD substep, 100 particles, one iteration, no contacts (the hang scene, pinned at both ends)."""
+    scene = mjcable.scenes.get("hang", n_segments=99)
+    sim = mjcable.Simulator(scene, "xpbd")  # defaults: 1 substep, 1 iteration, Gauss-Seidel
+    backend = sim._backend
+    sim.step(0.1)
+    S, C = backend.state, backend.contacts
+    x, v, w = S.x.copy(), S.v.copy(), S.w.copy()
+    x0 = x.copy()
+    rest, h = float(S.rest[0]), backend.h
+    minimal_gauss_seidel(x, v, x0, w, rest, h, 1)
+    kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0)
+    t_min = _best(lambda: minimal_gauss_seidel(x, v, x0, w, rest, h, batch), repeats) / batch
+    t_ours = _best(lambda: kernels.run_substeps_flat(*S, *C, batch, kernels.PHASE_ALL, 0), repeats) / batch
+    t_call = _per_call(lambda: kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0), 2000, repeats)
+    t_backend = _per_call(backend.step, 2000, repeats)
+    t_sim = _per_call(sim.step, 2000, repeats)
+    return dict(minimal=t_min, xpbd=t_ours, kernel_call=t_call, backend_step=t_backend, simulator_step=t_sim)
+
+
+def bench_table(repeats: int, substeps: int = 10, batch: int = 500) -> dict:
+    """The table scene at rest on the table (xpbd, 50 segments): one step's contact query and one substep's
+    projection with and without its contacts."""
+    scene = mjcable.scenes.get("table")
+    sim = mjcable.Simulator(scene, "xpbd", substeps=substeps)
+    backend = sim._backend
+    sim.step(1.5)
+    S = backend.state
+    backend._find_contacts()
+    C = backend.contacts
+    none = C._replace(seg=C.seg[:0], geo=C.geo[:0], lam=C.lam[:0])
+    saved = [a.copy() for a in S]
+
+    def restore():
+        for a, b in zip(S, saved):
+            a[...] = b
+
+    t_query = _per_call(backend._find_contacts, 500, repeats)
+    t_collision = _per_call(lambda: mujoco.mj_collision(backend.mj_model, backend.mj_data), 500, repeats)
+    kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0)
+    restore()
+    t_with = _best(lambda: kernels.run_substeps_flat(*S, *C, batch, kernels.PHASE_ALL, 0), repeats) / batch
+    restore()
+    t_without = _best(lambda: kernels.run_substeps_flat(*S, *none, batch, kernels.PHASE_ALL, 0), repeats) / batch
+    restore()
+    t_step = _per_call(backend.step, 500, repeats)
+    return dict(contacts=len(C.seg), query=t_query, mj_collision=t_collision, substep=t_with,
+                substep_no_contacts=t_without, step=t_step, substeps=substeps)
+
+
+def bench_proxy(repeats: int) -> dict:
+    """mj_collision with explicit pairs (mocap capsules) vs free-joint capsules: table scene, 100 segments, the
+    cable lying on the table and lifted 0.3 m into the air."""
+    scene = mjcable.scenes.get("table", n_segments=100)
+    c = scene.cable
+    p = c.particles.copy()
+    p[:, 2] = 0.75 + 0.9 * c.radius
+    pos = np.zeros((c.n_segments, 3))
+    quat = np.zeros((c.n_segments, 4))
+    kernels.proxy_poses(p, pos, quat)
+    out = {}
+    for kind in proxy.PROXY_KINDS:
+        m = proxy.build(scene, dt=0.002, proxy=kind).compile()
+        d = mujoco.MjData(m)
+        for where, lift in (("contact", 0.0), ("air", 0.3)):
+            if kind == "pairs":
+                d.mocap_pos[: c.n_segments] = pos + [0, 0, lift]
+                d.mocap_quat[: c.n_segments] = quat
+            else:
+                qpos = d.qpos.reshape(-1, 7)
+                qpos[:, :3] = pos + [0, 0, lift]
+                qpos[:, 3:] = quat
+            mujoco.mj_kinematics(m, d)
+            out[kind, where] = _per_call(lambda: mujoco.mj_collision(m, d), 1000, repeats), d.ncon
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--proxy", action="store_true", help="also compare pairs with free-joint proxies")
+    args = parser.parse_args()
+    us = 1e6
+    s = bench_substep(args.repeats)
+    print("XPBD substep, 100 particles, 1 iteration, no contacts")
+    print(f"  minimal scalar numba Gauss-Seidel loop   {s['minimal'] * us:8.2f} µs")
+    print(f"  mjcable xpbd substep (in-kernel loop)   {s['xpbd'] * us:8.2f} µs   ratio {s['xpbd'] / s['minimal']:.2f}")
+    print(f"  one kernel call, 1 substep               {s['kernel_call'] * us:8.2f} µs   (numba dispatch included)")
+    print(f"  backend.step (1 substep, proxy sync)     {s['backend_step'] * us:8.2f} µs")
+    print(f"  Simulator.step (plus divergence checks)  {s['simulator_step'] * us:8.2f} µs")
+    t = bench_table(args.repeats)
+    print(f"table scene, xpbd, 50 segments at rest, {t['contacts']} contacts, {t['substeps']} substeps × 1 iteration")
+    print(f"  contact query per step                   {t['query'] * us:8.2f} µs   (mj_collision alone "
+          f"{t['mj_collision'] * us:.2f} µs)")
+    print(f"  substep with contacts                    {t['substep'] * us:8.2f} µs")
+    print(f"  substep without contacts                 {t['substep_no_contacts'] * us:8.2f} µs   "
+          f"(contact projection {(t['substep'] - t['substep_no_contacts']) * us:.2f} µs)")
+    print(f"  whole step (query + {t['substeps']} substeps + sync)    {t['step'] * us:8.2f} µs")
+    if args.proxy:
+        p = bench_proxy(args.repeats)
+        print("mj_collision, table scene, 100 segments")
+        for (kind, where), (sec, ncon) in p.items():
+            print(f"  {kind:5s} {where:8s} {sec * us:8.2f} µs   {ncon} contacts")
+
+
+if __name__ == "__main__":
+    main()
