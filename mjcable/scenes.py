@@ -21,6 +21,7 @@ HANG_LENGTH = 1.0  # m
 HANG_SPAN = 0.8  # m
 HANG_HEIGHT = 1.0  # m, height of both pins
 TABLE_TOP = 0.75  # m
+TABLE_DROP = 0.25  # m, start height of the table scene's cable above the top
 
 _DEFAULTS = dict(n_segments=50, radius=0.005, mass=0.1, damping=0.2, friction=1.0)
 _REGISTRY: Dict[str, Callable[..., Scene]] = {}
@@ -83,9 +84,10 @@ def _hang(**fields) -> Scene:
 
 @_register
 def _table(**fields) -> Scene:
-    """A wavy 1 m-ish cable dropped from 10 cm onto a table (with a floor below)."""
-    z = TABLE_TOP + 0.1
-    points = fields.pop("points", [[-0.45, -0.1, z], [-0.15, 0.1, z], [0.15, -0.1, z], [0.45, 0.1, z]])
+    """A wavy, 1.2 m cable dropped from about 25 cm onto a table (with a floor below)."""
+    z = TABLE_TOP + TABLE_DROP
+    points = fields.pop("points", [[-0.45, -0.15, z], [-0.15, 0.15, z + 0.05], [0.15, -0.15, z - 0.05],
+                                   [0.45, 0.15, z]])
     table = Box(size=(0.6, 0.4, 0.02), pos=(0.0, 0.0, TABLE_TOP - 0.02))
     return Scene(_cable(points, **fields), obstacles=(Floor(), table), name="table")
 
