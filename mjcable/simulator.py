@@ -98,9 +98,11 @@ class _NativeBackend:
         for release_force, ids in self._sockets:
             if not d.eq_active[ids[0]]:
                 continue
-            sel = rows & (d.efc_id[: d.nefc] == ids[0])
-            force = float(np.linalg.norm(d.efc_force[: d.nefc][sel][:3]))
-            if force > release_force:
+            # the socket's force on the plug: the pin's and (if clamped) the clamp's connect forces together
+            total = np.zeros(3)
+            for i in ids:
+                total += d.efc_force[: d.nefc][rows & (d.efc_id[: d.nefc] == i)][:3]
+            if float(np.linalg.norm(total)) > release_force:
                 d.eq_active[ids] = 0
 
     def positions(self) -> np.ndarray:

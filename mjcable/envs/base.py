@@ -1,0 +1,361 @@
+"""The pieces every cable environment shares: the task registry, a Physics over a Simulator, a Task base.
+
+:class:`CablePhysics` is a ``dm_control.mujoco.Physics`` that wraps the ``MjModel``/``MjData`` of an
+:class:`mjcable.Simulator` (the very same ``MjData``: ``physics.data.ptr is simulator.mj_data``) and steps through
+the Simulator, so the native models (stepped by MuJoCo) and the particle solvers (the cable stepped by the solver,
+the rigid scene and the proxy capsules by MuJoCo) run, observe and render alike. ``physics.timestep()`` is the
+Simulator's ``dt``; one control step is ``control_timestep / dt`` Simulator steps, and the grippers move a
+``1 / n``-th of their commanded displacement before each of them, clamped to the task's :class:`Workspace`.
+
+Every episode starts on a fresh Simulator (a particle solver's state lives outside ``MjData``, and a native model
+compiled straight keeps its start pose in a keyframe, so ``mj_resetData`` would not restore either); a scene that
+has not been stepped is reused.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from typing import Dict, Optional, Sequence
+
+import mujoco as mj
+import numpy as np
+from dm_control import mujoco
+from dm_control.mujoco import wrapper
+from dm_control.rl import control
+from dm_control.suite import base
+from dm_control.utils import containers
+from dm_env import specs
+
+from mjcable import scenes
+from mjcable.build import check_dt, check_model
+from mjcable.envs.workspace import Workspace
+from mjcable.scene import Scene
+from mjcable.simulator import Simulator
+
+__all__ = [
+    "SUITE",
+    "CablePhysics",
+    "CableTask",
+    "make_environment",
+    "register",
+    "scene_with_pins",
+    "DEFAULT_CONTROL_TIMESTEP",
+    "MAX_GRIPPER_SPEED",
+    "MODEL_DEFAULTS",
+]
+
+SUITE = containers.TaggedTasks()  # task name -> factory(model, *, random, time_limit, control_timestep, **settings)
+
+DEFAULT_CONTROL_TIMESTEP = 0.02  # s between actions (50 Hz)
+MAX_GRIPPER_SPEED = 0.5  # m/s per axis: the action bound is this times the control timestep
+_ACTION_RTOL = 1e-6  # relative slack on the action bounds (float32 actions exactly at a bound round past it)
+_STEP_RTOL = 1e-8  # relative slack when checking that the control timestep is a whole number of dt
+_DEFAULT_DT = 0.002  # s, the Simulator's default step
+_CABLE_RGBA = np.array([0.85, 0.25, 0.12, 1.0], dtype=np.float32)  # build/world.py's "cable" material
+# Settings the environments give a model unless the caller sets them. The particle solvers default to one substep
+# of one iteration per dt, which leaves a 50-segment cable ~9 % longer under a 2 N pull: an unplug socket would never
+# feel its release force. Ten substeps keep the stretch near 0.1 % (Small Steps) and still run faster than real time.
+MODEL_DEFAULTS = {"jakobsen": {"substeps": 10}, "pbd": {"substeps": 10}, "xpbd": {"substeps": 10}}
+
+
+class CablePhysics(mujoco.Physics):
+    """A ``dm_control`` Physics stepped by an :class:`mjcable.Simulator`, with named cable read-outs.
+
+    Create it with :meth:`from_simulator`; tasks start episodes with :meth:`start` and command grippers with
+    :meth:`command_grippers`.
+    """
+
+    @classmethod
+    def from_simulator(cls, simulator: Simulator, *, settings: Optional[dict] = None) -> "CablePhysics":
+        """A Physics sharing ``simulator``'s ``MjModel`` and ``MjData``.
+
+        Args:
+          simulator: the simulator to step.
+          settings: the Simulator keyword arguments (``dt`` and model settings) used to rebuild it at each episode.
+        """
+        physics = cls.__new__(cls)
+        physics._warnings_cause_exception = True
+        physics._settings = dict(settings or {})
+        physics._settings.setdefault("dt", simulator.dt)
+        physics._workspace = None
+        physics._attach(simulator)
+        return physics
+
+    def _attach(self, simulator: Simulator) -> None:
+        self._sim = simulator
+        scene = simulator.scene
+        self._pins = np.array([scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))],
+                              dtype=np.float64).reshape(-1, 3)
+        self._commands: Dict[int, np.ndarray] = {}
+        self._velocity = np.zeros((scene.cable.n_particles, 3))
+        self._dirty = False
+        self._reload_from_data(wrapper.MjData(simulator.mj_data))
+
+    # --- episodes -------------------------------------------------------------------------------------------------
+
+    def start(self, scene: Scene, workspace: Workspace) -> None:
+        """Start an episode of ``scene`` with grippers clamped to ``workspace``: a fresh Simulator unless the
+        current one holds the same, untouched scene.
+
+        Raises:
+          ValueError: a gripper's start position lies outside ``workspace`` (a task design error).
+        """
+        if workspace.scene != scene:
+            raise ValueError("workspace.scene must be the scene being started")
+        if self._dirty or scene != self._sim.scene:
+            self._attach(Simulator(scene, self._sim.model, **self._settings))
+        engaged = self.pins_engaged()
+        for k in scene.grippers:
+            excess = workspace.violation(k, self._pins[k], self._pins, engaged)
+            if excess > 0.0:
+                raise ValueError(f"gripper of pin {k} starts {excess:.3g} m outside its workspace at "
+                                 f"{self._pins[k]}; widen the workspace or move the start")
+        self._workspace = workspace
+
+    def reset(self, keyframe_id=None) -> None:
+        """Restart the current scene from its start state (a fresh Simulator if it has been stepped)."""
+        if keyframe_id is not None:
+            raise ValueError(f"keyframe_id is not supported by a cable Physics (episodes start from the scene), "
+                             f"got {keyframe_id!r}")
+        if self._dirty:
+            self._attach(Simulator(self._sim.scene, self._sim.model, **self._settings))
+
+    def copy(self, share_model=False):
+        raise NotImplementedError("a CablePhysics cannot be copied: its state lives in an mjcable.Simulator; "
+                                  "build another environment with mjcable.envs.load instead")
+
+    # --- stepping -------------------------------------------------------------------------------------------------
+
+    def command_grippers(self, displacements: Dict[int, np.ndarray]) -> None:
+        """Move gripper pins by ``displacements`` ({pin index: (3,) metres}) over the next :meth:`step`."""
+        grippers = self._sim.scene.grippers
+        for k in displacements:
+            if k not in grippers:
+                raise ValueError(f"displacements must be keyed by gripper pins {grippers}, got pin {k!r}")
+        self._commands = {k: np.asarray(d, dtype=np.float64) for k, d in displacements.items()}
+
+    def step(self, nstep: int = 1) -> None:
+        """Advance ``nstep`` Simulator steps of ``dt``, moving the commanded grippers ``1 / nstep`` of the way
+        before each.
+
+        Raises:
+          mjcable.SimulationDivergedError: the simulation diverged.
+          dm_control.rl.control.PhysicsError: MuJoCo raised another warning.
+        """
+        if self._commands and self._workspace is None:
+            raise RuntimeError("start an episode (physics.start) before commanding grippers")
+        commands, self._commands = self._commands, {}
+        before = self._sim.positions
+        self._dirty = True
+        with self.check_invalid_state():
+            for _ in range(nstep):
+                if commands:
+                    engaged = self.pins_engaged()
+                    for k, displacement in commands.items():
+                        self._pins[k] = self._workspace.move(k, self._pins[k], displacement / nstep, self._pins,
+                                                             engaged)
+                        self._sim.move_gripper(k, self._pins[k])
+                self._sim.step()
+        self._velocity = (self._sim.positions - before) / (nstep * self._sim.dt)
+
+    def render(self, height=240, width=320, camera_id=-1, overlays=(), depth=False, segmentation=False,
+               scene_option=None, render_flag_overrides=None, scene_callback=None) -> np.ndarray:
+        """dm_control's ``Physics.render``; unless given a ``scene_callback`` (or asked for depth or segmentation),
+        it also draws the cable's centreline as capsules of the cable's radius, so that every model shows the same
+        continuous cable (the springs model's own geoms are small beads, the particle solvers' are proxy capsules).
+        """
+        if scene_callback is None and not (depth or segmentation):
+            scene_callback = _draw_centreline
+        return super().render(height=height, width=width, camera_id=camera_id, overlays=overlays, depth=depth,
+                              segmentation=segmentation, scene_option=scene_option,
+                              render_flag_overrides=render_flag_overrides, scene_callback=scene_callback)
+
+    def timestep(self) -> float:
+        """The Simulator's step ``dt`` in seconds."""
+        return self._sim.dt
+
+    def time(self) -> float:
+        """Simulated time of the episode in seconds."""
+        return self._sim.time
+
+    # --- read-outs ------------------------------------------------------------------------------------------------
+
+    @property
+    def simulator(self) -> Simulator:
+        return self._sim
+
+    @property
+    def scene(self) -> Scene:
+        return self._sim.scene
+
+    @property
+    def workspace(self) -> Optional[Workspace]:
+        return self._workspace
+
+    def centreline(self) -> np.ndarray:
+        """``(n_segments + 1, 3)`` centreline particles in metres."""
+        return self._sim.positions
+
+    def centreline_velocity(self) -> np.ndarray:
+        """``(n_segments + 1, 3)`` mean particle velocities over the last control step in m/s (zero at the start)."""
+        return self._velocity.copy()
+
+    def gripper_positions(self) -> np.ndarray:
+        """``(n_grippers, 3)`` gripper positions in metres, in the order of ``scene.grippers``."""
+        return self._pins[list(self._sim.scene.grippers)].copy()
+
+    def pin_positions(self) -> np.ndarray:
+        """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are, anchors where they started."""
+        return self._pins.copy()
+
+    def pins_engaged(self) -> np.ndarray:
+        """``(n_pins,)`` bool: whether each pin still holds the cable (a released socket does not)."""
+        engaged = np.ones(len(self._sim.scene.pins), dtype=bool)
+        engaged[list(self._sim.released)] = False
+        return engaged
+
+
+def _draw_centreline(physics: CablePhysics, scn) -> None:
+    """Append the centreline to the ``mjvScene`` as capsules in the cable's colour (per frame, not per step)."""
+    points = physics.centreline()
+    radius = physics.scene.cable.radius
+    geoms = mj.MjvScene.geoms.__get__(scn)  # all maxgeom slots (dm_control's subclass shows only the first ngeom)
+    eye = np.eye(3).ravel()
+    for i in range(min(len(points) - 1, scn.maxgeom - scn.ngeom)):
+        g = geoms[scn.ngeom]
+        mj.mjv_initGeom(g, mj.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), eye, _CABLE_RGBA)
+        mj.mjv_connector(g, mj.mjtGeom.mjGEOM_CAPSULE, radius, points[i], points[i + 1])
+        scn.ngeom += 1
+
+
+class CableTask(base.Task):
+    """Base of the cable tasks: gripper-displacement actions, cable observations, a workspace clamp.
+
+    Subclasses set ``name`` (the registry key), ``physics_class`` (a :class:`CablePhysics` subclass with the task's
+    read-outs) and ``controlled`` (the gripper pins the action moves, in order), implement :meth:`make_scene`,
+    :meth:`make_workspace`, :meth:`task_observations` and :meth:`get_reward`, draw their episode's random values from
+    ``self.random`` in :meth:`make_scene` / :meth:`sample_episode`, and register with :func:`register`.
+
+    Args:
+      random: an int seed, a ``numpy.random.RandomState`` or ``None``, as in dm_control.
+      control_timestep: seconds between actions (> 0); the action bound is ``MAX_GRIPPER_SPEED`` times it.
+    """
+
+    controlled: Sequence[int] = ()
+    default_time_limit: float = math.inf  # s, set by :func:`register`
+
+    def __init__(self, *, random=None, control_timestep: float = DEFAULT_CONTROL_TIMESTEP):
+        super().__init__(random=random)
+        self._max_step = MAX_GRIPPER_SPEED * control_timestep
+
+    # --- to implement ---------------------------------------------------------------------------------------------
+
+    def make_scene(self) -> Scene:
+        """The scene of the next episode (may draw from ``self.random``)."""
+        raise NotImplementedError
+
+    def make_workspace(self, scene: Scene) -> Workspace:
+        raise NotImplementedError
+
+    def sample_episode(self, physics: CablePhysics) -> None:
+        """Draw the episode's random values (targets) from ``self.random``; called after the scene started."""
+
+    def task_observations(self, physics: CablePhysics) -> dict:
+        """Task values to append to the observation: name -> float64 array."""
+        return {}
+
+    # --- dm_control Task ------------------------------------------------------------------------------------------
+
+    def initialize_episode(self, physics: CablePhysics) -> None:
+        scene = self.make_scene()
+        physics.start(scene, self.make_workspace(scene))
+        self.sample_episode(physics)
+        super().initialize_episode(physics)
+
+    def action_spec(self, physics: CablePhysics) -> specs.BoundedArray:
+        """Displacements of the controlled grippers over one control step: ``(3 * len(controlled),)`` metres."""
+        shape = (3 * len(self.controlled),)
+        return specs.BoundedArray(shape, np.float64, -self._max_step, self._max_step, name="gripper_displacement")
+
+    def before_step(self, action, physics: CablePhysics) -> None:
+        spec = self.action_spec(physics)
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"action must be an array of shape {spec.shape} in metres, got {action!r}") from exc
+        if a.shape != spec.shape:
+            raise ValueError(f"action must have shape {spec.shape} (x, y, z displacement in metres of grippers "
+                             f"{tuple(self.controlled)}), got shape {a.shape}: {action!r}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite, got {action!r}")
+        slack = _ACTION_RTOL * self._max_step
+        if np.any(a < spec.minimum - slack) or np.any(a > spec.maximum + slack):
+            bad = a[(a < spec.minimum - slack) | (a > spec.maximum + slack)]
+            raise ValueError(f"action entries must lie in [{-self._max_step:g}, {self._max_step:g}] m per control "
+                             f"step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s), got {bad.tolist()} in {action!r}")
+        a = np.clip(a, spec.minimum, spec.maximum)
+        physics.command_grippers({k: a[3 * i: 3 * i + 3] for i, k in enumerate(self.controlled)})
+
+    def get_observation(self, physics: CablePhysics) -> collections.OrderedDict:
+        """``centreline`` (n+1, 3) m, ``centreline_velocity`` (n+1, 3) m/s, ``grippers`` (n_grippers, 3) m, then the
+        task's values; all float64."""
+        obs = collections.OrderedDict()
+        obs["centreline"] = physics.centreline()
+        obs["centreline_velocity"] = physics.centreline_velocity()
+        obs["grippers"] = physics.gripper_positions()
+        for name, value in self.task_observations(physics).items():
+            obs[name] = np.asarray(value, dtype=np.float64)
+        return obs
+
+
+def _check_seconds(name: str, value, *, allow_none: bool) -> Optional[float]:
+    if value is None and allow_none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 < float(value) < math.inf:
+        raise ValueError(f"{name} must be a finite number of seconds > 0, got {value!r}")
+    return float(value)
+
+
+def make_environment(task: CableTask, physics_class: type, model: str, *, time_limit: float,
+                     control_timestep: float, settings: dict) -> control.Environment:
+    """Build the Simulator of ``task``'s first scene, wrap it in ``physics_class`` and make the Environment."""
+    dt = check_dt(settings.get("dt", _DEFAULT_DT))
+    n = control_timestep / dt
+    if abs(n - round(n)) > _STEP_RTOL * n or round(n) < 1:
+        raise ValueError(f"control_timestep must be a whole number (>= 1) of Simulator steps dt = {dt:g} s, "
+                         f"got {control_timestep!r}")
+    settings = {**settings, "dt": dt}
+    simulator = Simulator(task.make_scene(), model, **settings)
+    physics = physics_class.from_simulator(simulator, settings=settings)
+    return control.Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)
+
+
+def register(default_time_limit: float, *tags: str):
+    """Register a task class as ``SUITE[name]``; its factory builds the Environment on any model."""
+
+    def wrap(task_class):
+        def factory(model: str = "flexrod", *, random=None, time_limit: Optional[float] = None,
+                    control_timestep: Optional[float] = None, **settings) -> control.Environment:
+            check_model(model)
+            limit = _check_seconds("time_limit", time_limit, allow_none=True) or default_time_limit
+            step = _check_seconds("control_timestep", control_timestep, allow_none=True) or DEFAULT_CONTROL_TIMESTEP
+            task = task_class(random=random, control_timestep=step)
+            return make_environment(task, task_class.physics_class, model, time_limit=limit,
+                                    control_timestep=step, settings={**MODEL_DEFAULTS.get(model, {}), **settings})
+
+        task_class.default_time_limit = default_time_limit
+        factory.__name__ = task_class.name
+        factory.__qualname__ = task_class.name
+        factory.__doc__ = task_class.__doc__
+        SUITE.add(*tags)(factory)
+        return task_class
+
+    return wrap
+
+
+def scene_with_pins(name: str, pins: tuple, **cable) -> Scene:
+    """Built-in scene ``name`` (with ``CableSpec`` overrides ``cable``) holding the cable by ``pins`` instead."""
+    s = scenes.get(name, **cable)
+    return Scene(s.cable, pins=tuple(pins), obstacles=s.obstacles, name=s.name)
+

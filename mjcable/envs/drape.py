@@ -1,0 +1,103 @@
+"""``drape``: lay the cable over a peg so that both ends hang down on either side.
+
+The built-in ``drape`` scene (a horizontal peg of radius 3 cm at 0.8 m over a floor), but the 1 m cable now hangs
+straight down from a gripper holding one end. Each episode starts the gripper on a random side of the peg,
+``START_OFFSET`` metres from its axis. The agent carries the cable over the peg and lowers the gripper on the far
+side, so that the peg carries the cable with one end hanging on each side. The reward averages three shaped terms:
+the cable's highest point rests on the peg's top, its two halves hang on opposite sides of the peg's axis, and
+both ends hang at least ``HANG_DROP`` below the peg's top.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from dm_control.utils import rewards
+
+from mjcable import scenes
+from mjcable.envs import base
+from mjcable.envs.workspace import Workspace
+from mjcable.scene import Cylinder, Pin, Scene
+
+__all__ = ["Physics", "Drape", "START_OFFSET", "START_HEIGHT", "HANG_DROP", "TIME_LIMIT"]
+
+START_OFFSET = (0.3, 0.45)  # m, horizontal distance of the gripper from the peg's axis at the start (uniform)
+START_HEIGHT = 1.35  # m, gripper height at the start; the 1 m cable hangs straight down from it
+HANG_DROP = 0.2  # m: full reward once both ends hang this far below the peg's top
+TIME_LIMIT = 10.0  # s
+_CLEARANCE = 0.01  # m the gripper keeps from the peg and the floor
+_WORKSPACE = ((-0.7, -0.25, 0.3), (0.8, 0.25, 1.6))  # m, the allowed box of the gripper
+_REST_TOLERANCE = 0.01  # m: full support reward with the cable's highest point this close to resting on the peg
+_REST_MARGIN = 0.3  # m
+_SIDE_MARGIN = 0.03  # m: a leg this far on the wrong side of the peg's axis earns a tenth of the side reward
+_HANG_MARGIN = 0.2  # m
+_CABLE_LENGTH = 1.0  # m: the cable starts straight down from the gripper, this long
+_PEG = next(ob for ob in scenes.get("drape").obstacles if isinstance(ob, Cylinder))  # the built-in scene's peg
+
+
+class Physics(base.CablePhysics):
+    """Adds read-outs of the peg, the cable's ends and its legs."""
+
+    def peg(self) -> Cylinder:
+        return next(ob for ob in self.scene.obstacles if isinstance(ob, Cylinder))
+
+    def peg_top(self) -> np.ndarray:
+        """(3,) the highest point of the peg's middle, metres."""
+        peg = self.peg()
+        return np.asarray(peg.pos) + np.array([0.0, 0.0, peg.radius])
+
+    def ends(self) -> np.ndarray:
+        """(2, 3) the cable's two ends, metres."""
+        return self.centreline()[[0, -1]]
+
+    def leg_positions(self) -> np.ndarray:
+        """(2,) where the cable's two halves hang: the mean x (metres) of each half's particles below the peg's top,
+        or its end's x if none is. Draped over the peg, the halves hang on either side of its axis."""
+        x = self.centreline()
+        middle = len(x) // 2
+        top = self.peg_top()[2]
+        legs = []
+        for half, end in ((x[: middle + 1], x[0]), (x[middle:], x[-1])):
+            below = half[half[:, 2] < top]
+            legs.append(float(np.mean(below[:, 0])) if len(below) else float(end[0]))
+        return np.array(legs)
+
+    def rest_gap(self) -> float:
+        """Distance in metres from the cable's highest point to where it would rest on the peg's top (the top line
+        raised by the cable's radius, at the same y)."""
+        x = self.centreline()
+        highest = x[int(np.argmax(x[:, 2]))]
+        top = self.peg_top()
+        rest = np.array([top[0], highest[1], top[2] + self.scene.cable.radius])
+        return float(np.linalg.norm(highest - rest))
+
+
+@base.register(TIME_LIMIT, "benchmarking")
+class Drape(base.CableTask):
+    """Carry the cable, held by one end, over the peg so that both ends hang down on either side."""
+
+    name = "drape"
+    physics_class = Physics
+    controlled = (0,)
+
+    def make_scene(self) -> Scene:
+        side = 1.0 if self.random.uniform() < 0.5 else -1.0
+        x0 = _PEG.pos[0] + side * self.random.uniform(*START_OFFSET)
+        points = [[x0, 0.0, START_HEIGHT], [x0, 0.0, START_HEIGHT - _CABLE_LENGTH]]
+        return base.scene_with_pins("drape", (Pin(0, "gripper"),), points=points)
+
+    def make_workspace(self, scene: Scene) -> Workspace:
+        return Workspace(scene, *_WORKSPACE, clearance=_CLEARANCE)
+
+    def task_observations(self, physics: Physics) -> dict:
+        return {"peg_top": physics.peg_top(), "ends": physics.ends()}
+
+    def get_reward(self, physics: Physics) -> float:
+        peg, top = physics.peg(), physics.peg_top()
+        rest = rewards.tolerance(physics.rest_gap(), bounds=(0.0, _REST_TOLERANCE), margin=_REST_MARGIN)
+        left, right = np.sort(physics.leg_positions())
+        apart = min(top[0] - left, right - top[0])
+        sides = rewards.tolerance(apart, bounds=(0.5 * peg.radius, np.inf), margin=_SIDE_MARGIN)
+        drop = top[2] - float(np.max(physics.ends()[:, 2]))
+        hang = rewards.tolerance(drop, bounds=(HANG_DROP, np.inf), margin=_HANG_MARGIN)
+        return float((rest + sides + hang) / 3.0)
+
