@@ -1,0 +1,364 @@
+"""``joints``: the thesis's stiff model (§2.2.3, §3.3) in reduced coordinates: a kinematic tree of capsules.
+
+Body ``cable{i}`` (``i = 0 .. n-1``) has its frame at particle ``i`` with its local x axis along the segment and
+carries a capsule from particle ``i`` to particle ``i+1``; body ``i+1`` hangs from body ``i`` at ``(l₀, 0, 0)`` by a
+ball joint. Site ``particle{i}`` sits at body ``i``'s origin, ``particle{n}`` at the end of the last capsule. The
+segment lengths are part of the kinematics, so the chain is exactly inextensible.
+
+Mapping from the physical cable:
+
+* mass: each of the n segment bodies weighs m/n (a capsule geom of the cable radius; inertia from its shape);
+* length: segment l₀ (the equal chord) from body origin to body origin: the rest length n·l₀ holds exactly;
+* stretch: E·A (``stretch_stiffness``) is not modelled: the joints keep every segment length exactly;
+* bending: ball-joint stiffness k = E·I / l₀ in N·m/rad, the discrete rod energy E·I·θ² / (2 l₀) of a bend by θ
+  over one segment. A ball joint's stiffness is isotropic, so it also acts on twist: the chain's torsional
+  stiffness is E·I / l₀, not the rod's G·J / l₀ = E·I / ((1 + ν) l₀) (a third stiffer in twist at ν = 0.5).
+  E = 0 is a limp chain compiled in its start shape. With E > 0 the chain compiles straight (a ball joint's spring
+  reference is qpos0), along the start tangent, and the keyframe ``mjcable.build.START_KEY`` poses the start
+  shape (each ball quaternion is the minimal rotation between consecutive segment directions, in the parent's
+  frame);
+* damping rate c (1/s): MuJoCo's medium viscosity (:func:`segment_viscosity`), which drags every segment with
+  −c·(m/n)·v at its centre of mass, like the particle models' −c·mᵢ·vᵢ, plus ball-joint damping c·A (A the armature
+  below), which drains the armature's kinetic energy at the same rate. Joint damping alone would not do: it acts on
+  relative rotations, which a chain's smooth, slow modes hardly have (tried: c·(m/n)·l₀² per ball joint leaves the
+  hanging cable swinging for ever). Both vanish at rest, so they never change a static equilibrium;
+* integrator: semi-implicit Euler, implicit in joint damping (:func:`integrator`; ``implicitfast`` only where the
+  explicit drag would be too strong for Euler). ``implicitfast`` would also differentiate the drag, which triples
+  the cost of a step here;
+* the whip (numerical regularisation, :func:`ball_options`): a limp inextensible chain's free end speeds up without
+  bound as it swings through; joint speeds near 1/h then make MuJoCo's explicit Coriolis terms diverge (at every dt
+  tried, down to 0.2 ms). Each ball joint gets the armature ``WHIP_ARMATURE``·(m/n)·l₀², rotor inertia on the
+  joint's rotation, and the damping A / (``WHIP_RELAXATION_STEPS``·h), which relaxes a joint's relative spin within
+  that many steps. Neither changes statics. The armature adds the fraction α·(k·l₀)⁴ to the kinetic energy of a
+  bending wave of wavenumber k (under 1 % for waves longer than 35 segments); the damping is a bending viscosity
+  A·l₀ / (20 h) that damps waves shorter than about 10 segments within a few periods and waves of 50 segments or
+  more at well under 1/s;
+* explicit joint springs: E·I/l₀·(h/``STABLE_OMEGA_H``)² more armature (:func:`joint_armature`). The chain's
+  stiffness matrix in joint coordinates is k·I, so its fastest mode has ω² ≤ k / A and ω·h ≤ ``STABLE_OMEGA_H``.
+  A free root is three slide joints and a ball joint (:func:`add_root_joints`) so that its rotation carries the
+  same armature and damping (a free joint's armature would add massless inertia to its translations);
+* contacts: ``world.cable_geom`` on every capsule; neighbouring capsules never collide (parent and child bodies,
+  and explicit excludes). The obstacles get a stiff contact time constant of ``CONTACT_SOLREF_STEPS`` physics steps
+  (:func:`stiffen_obstacle_contacts`): with MuJoCo's default 20 ms, the tension of the inextensible chain draping
+  over the ``drape`` peg presses it 3 cm into the 3 cm peg and pulls it through;
+* cost: a serial chain's joint-space mass matrix is dense, so a step costs O(n³) (reduced coordinates);
+  :func:`jacobian` picks the faster constraint Jacobian layout.
+
+Pins at particle 0 are part of the tree: no pin gives a free root; a world pin a ball joint (a clamped
+world pin none: welded to the world); a gripper pin makes the root a child of the mocap body ``gripper{k}``
+(ball joint, or none when clamped); a socket a free root held by the releasable connect equality ``pin{k}``
+(+ ``pin{k}_clamp`` at particle 1 when clamped). Pins elsewhere hold their particle with a site-to-site connect
+equality ``pin{k}`` to ``anchor{k}`` (a world site, or a site in the gripper's mocap body); a clamp also connects
+the neighbouring particle (``pin{k}_clamp`` to ``anchor{k}_clamp``), which fixes the tangent, not the twist.
+
+``composite`` builds the same chain with MuJoCo's ``<composite type="cable">`` and shares these helpers.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Optional
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from mjcable.build import START_KEY, world
+from mjcable.scene import Scene
+
+__all__ = [
+    "build",
+    "root_pin",
+    "root_joint",
+    "add_root_joints",
+    "joint_stiffness",
+    "segment_viscosity",
+    "stiffen_obstacle_contacts",
+    "jacobian",
+    "integrator",
+    "joint_armature",
+    "ball_options",
+    "segment_frames",
+    "relative_quats",
+    "add_anchors",
+    "add_pin_equalities",
+    "body_name",
+    "STABLE_OMEGA_H",
+    "WHIP_ARMATURE",
+    "WHIP_RELAXATION_STEPS",
+    "CONTACT_SOLREF_STEPS",
+]
+
+STABLE_OMEGA_H = 1.0  # ω·h of the fastest joint-spring mode the armature allows (semi-implicit Euler's limit is 2)
+WHIP_ARMATURE = 10.0  # α of the ball-joint armature α·(m/n)·l₀² that tames the free-end whip
+WHIP_RELAXATION_STEPS = 20.0  # physics steps in which ball-joint damping relaxes the armature's relative spin
+CONTACT_SOLREF_STEPS = 2.0  # obstacle contact time constant in physics steps (MuJoCo's stable minimum)
+_PARALLEL_EPS = 1e-12  # |sin| below which two directions count as (anti)parallel
+
+
+def body_name(i: int) -> str:
+    """Name of segment body ``i``."""
+    return f"cable{i}"
+
+
+def root_pin(scene: Scene) -> Optional[int]:
+    """Index into ``scene.pins`` of the pin holding particle 0, or ``None``."""
+    for k in range(len(scene.pins)):
+        if scene.pin_particle(k) == 0:
+            return k
+    return None
+
+
+def joint_stiffness(scene: Scene) -> float:
+    """Ball-joint bending stiffness E·I / l₀ in N·m/rad (0 for a limp cable)."""
+    return scene.cable.bending_stiffness / scene.cable.segment_length
+
+
+def joint_armature(scene: Scene, timestep: float) -> float:
+    """Ball-joint armature in kg·m²: ``WHIP_ARMATURE``·(m/n)·l₀² + (E·I/l₀)·(h / ``STABLE_OMEGA_H``)²."""
+    cable = scene.cable
+    whip = WHIP_ARMATURE * cable.mass / cable.n_segments * cable.segment_length**2
+    return whip + joint_stiffness(scene) * (timestep / STABLE_OMEGA_H) ** 2
+
+
+def ball_options(scene: Scene, timestep: float) -> dict:
+    """Armature and damping of every ball joint: :func:`joint_armature` A, and the damping
+    A·(c + 1 / (``WHIP_RELAXATION_STEPS``·h)) in N·m·s/rad: the first part drains the armature's kinetic energy at
+    the cable's damping rate c (the medium drag only reaches the bodies), the second relaxes a joint's relative
+    spin within ``WHIP_RELAXATION_STEPS`` steps (see the module docstring)."""
+    armature = joint_armature(scene, timestep)
+    rate = scene.cable.damping + 1.0 / (WHIP_RELAXATION_STEPS * timestep)
+    return dict(armature=armature, damping=[rate * armature, 0.0, 0.0])
+
+
+@functools.lru_cache(maxsize=64)
+def _capsule_box(radius: float, length: float, mass: float) -> tuple:
+    """``(inertia (3,), box (3,))``: MuJoCo's principal inertia in kg·m² of a capsule geom (compiled, so it matches
+    MuJoCo exactly) and the full sides in metres of its equivalent inertia box (MuJoCo's fluid model)."""
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body()
+    body.add_freejoint()
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0.0, 0.0, 0.0, length, 0.0, 0.0],
+                  size=[radius, 0.0, 0.0], mass=mass)
+    inertia = spec.compile().body_inertia[1].copy()
+    box = np.sqrt(6.0 * (inertia.sum() - 2.0 * inertia) / mass)
+    return inertia, box
+
+
+def segment_viscosity(scene: Scene) -> float:
+    """MuJoCo's medium ``viscosity`` μ in Pa·s whose drag on every segment body is c·(m/n)·v.
+
+    MuJoCo's inertia-box fluid model applies the force −3π·μ·d·v at a body's centre of mass and the torque
+    −π·μ·d³·ω, d the mean side of the box with the body's mass and inertia. Every segment is the same capsule, so
+    μ = c·(m/n) / (3π·d) gives each the translational damping c·(m/n) (and the rotational damping c·(m/n)·d²/3).
+    """
+    cable = scene.cable
+    m_seg = cable.mass / cable.n_segments
+    _, box = _capsule_box(cable.radius, cable.segment_length, m_seg)
+    return cable.damping * m_seg / (3.0 * math.pi * float(box.mean()))
+
+
+def integrator(scene: Scene, timestep: float) -> int:
+    """MuJoCo's semi-implicit Euler where the explicit medium drag is stable, else ``implicitfast``.
+
+    Euler integrates joint damping implicitly but the drag explicitly: the drag's largest rate (c, or
+    c·d²/3 per unit mass over the capsule's smallest moment of inertia per unit mass for rotations) times the
+    timestep must stay below ``STABLE_OMEGA_H``. ``implicitfast`` also differentiates the drag, at about three times
+    the cost of a step, so it is used only beyond that (very heavy damping).
+    """
+    cable = scene.cable
+    m_seg = cable.mass / cable.n_segments
+    inertia, box = _capsule_box(cable.radius, cable.segment_length, m_seg)
+    rate = cable.damping * max(1.0, m_seg * float(box.mean()) ** 2 / 3.0 / float(inertia.min()))
+    if rate * timestep <= STABLE_OMEGA_H:
+        return mujoco.mjtIntegrator.mjINT_EULER
+    return mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+
+
+def jacobian(scene: Scene) -> int:
+    """MuJoCo's constraint Jacobian layout: dense for a scene without obstacles (a serial chain's mass matrix is
+    dense, and its pin equalities reach every dof: about twice as fast), MuJoCo's automatic choice (sparse for long
+    chains) with contacts, where the Newton solver refactors per iteration (about twice as fast at 100 segments)."""
+    return mujoco.mjtJacobian.mjJAC_AUTO if scene.obstacles else mujoco.mjtJacobian.mjJAC_DENSE
+
+
+def stiffen_obstacle_contacts(spec: mujoco.MjSpec, scene: Scene, timestep: float) -> None:
+    """Give the scene's obstacles (whose contact parameters take precedence) the contact time constant
+    ``CONTACT_SOLREF_STEPS`` physics steps."""
+    for i in range(len(scene.obstacles)):
+        spec.geom(f"obstacle{i}").solref = [CONTACT_SOLREF_STEPS * timestep, 1.0]
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(m, 4)`` unit quaternions (w, x, y, z) of the minimal rotations taking unit vectors ``a`` to ``b`` (m, 3)."""
+    a = np.atleast_2d(a)
+    b = np.atleast_2d(b)
+    cross = np.cross(a, b)
+    dot = np.sum(a * b, axis=1)
+    q = np.concatenate([(1.0 + dot)[:, None], cross], axis=1)
+    opposite = np.linalg.norm(cross, axis=1) < _PARALLEL_EPS
+    opposite &= dot < 0.0
+    if np.any(opposite):  # half turn about any axis normal to a
+        helper = np.where(np.abs(a[opposite, 0:1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        axis = np.cross(a[opposite], helper)
+        q[opposite] = np.concatenate([np.zeros((axis.shape[0], 1)), axis], axis=1)
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _quat_mul(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """Hamilton products of ``(m, 4)`` quaternion arrays (w, x, y, z)."""
+    w1, x1, y1, z1 = np.moveaxis(np.atleast_2d(q1), -1, 0)
+    w2, x2, y2, z2 = np.moveaxis(np.atleast_2d(q2), -1, 0)
+    return np.stack([
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+    ], axis=-1)
+
+
+def _conj(q: np.ndarray) -> np.ndarray:
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def segment_frames(particles: np.ndarray, root_quat: Optional[np.ndarray] = None) -> np.ndarray:
+    """World orientations of the segment bodies along a polyline, without twist.
+
+    Args:
+      particles: ``(n + 1, 3)`` particle positions in metres.
+      root_quat: ``(4,)`` orientation (w, x, y, z) of segment 0, whose x axis must point along the first segment;
+        default: the minimal rotation taking the world x axis there.
+
+    Returns:
+      ``(n, 4)`` unit quaternions: segment ``i``'s local x axis points from particle ``i`` to ``i + 1``; each frame
+      is its predecessor turned by the minimal rotation between the two segment directions (parallel transport).
+    """
+    d = np.diff(np.asarray(particles, dtype=np.float64), axis=0)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    turns = _rotation_between(d[:-1], d[1:])
+    frames = np.empty((d.shape[0], 4))
+    frames[0] = _rotation_between(np.array([1.0, 0.0, 0.0]), d[0])[0] if root_quat is None else root_quat
+    for i in range(1, d.shape[0]):  # build time only: a short sequential product
+        frames[i] = _quat_mul(turns[i - 1], frames[i - 1])[0]
+        frames[i] /= np.linalg.norm(frames[i])
+    return frames
+
+
+def relative_quats(frames: np.ndarray) -> np.ndarray:
+    """``(n - 1, 4)`` orientation of each segment frame ``i + 1`` in frame ``i`` (ball-joint quaternions)."""
+    q = _quat_mul(_conj(frames[:-1]), frames[1:])
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def add_anchors(spec: mujoco.MjSpec, scene: Scene) -> None:
+    """``world.add_anchor`` for every pin, in pin order (so mocap ids follow ``scene.grippers``)."""
+    for k in range(len(scene.pins)):
+        world.add_anchor(spec, scene, k)
+
+
+def add_pin_equalities(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, skip: Optional[int] = None) -> None:
+    """Hold every pin but ``skip`` with site-to-site connect equalities (independent of qpos0).
+
+    Pin ``k`` connects ``particle{i}`` to ``anchor{k}`` (from :func:`add_anchors`: a world site, or a site in the
+    gripper's mocap body); a clamp also connects the neighbouring particle to ``anchor{k}_clamp`` at its start
+    position, in the same body. Equalities are named ``pin{k}`` and ``pin{k}_clamp``.
+    """
+    p = scene.cable.particles
+    for k, pin in enumerate(scene.pins):
+        if k == skip:
+            continue
+        i = scene.pin_particle(k)
+        anchor = world.anchor_site(k)
+        world.add_connect(spec, world.pin_equality(k), world.particle_site(i), anchor, timestep=timestep)
+        if pin.clamp:
+            j = scene.clamp_neighbour(k)
+            if pin.kind == "gripper":
+                host, pos = spec.body(world.gripper_body(k)), p[j] - p[i]
+            else:
+                host, pos = spec.worldbody, p[j]
+            host.add_site(name=f"{anchor}_clamp", pos=pos)
+            world.add_connect(spec, world.pin_equality(k, clamp=True), world.particle_site(j), f"{anchor}_clamp",
+                              timestep=timestep)
+
+
+def root_joint(scene: Scene) -> tuple:
+    """``(kind, k)``: how body 0 attaches (``"free"``, ``"ball"`` or ``None``: welded to its parent) and the index
+    of the pin that the tree itself realises (``None`` when equalities hold every pin)."""
+    k = root_pin(scene)
+    if k is None or scene.pins[k].kind == "socket":
+        return "free", None
+    return (None if scene.pins[k].clamp else "ball"), k
+
+
+def add_root_joints(body, kind: Optional[str], *, name: str, options: dict) -> None:
+    """Joints of the root segment ``body`` (a child of the world or of a mocap gripper).
+
+    ``"free"`` is three slide joints along the world axes followed by a ball joint: unlike a free joint (whose
+    armature would also act as massless inertia on translations), the root's rotation then carries the same
+    armature and damping (``options``, from :func:`ball_options`) as every other ball joint; its qpos is laid out
+    like a free joint's: displacement from the body position (3), then the ball quaternion relative to the body
+    frame (4). ``"ball"`` is a ball joint without stiffness (a pin free to rotate); ``None`` adds nothing.
+    """
+    if kind == "free":
+        world_axes = Rotation.from_quat(np.asarray(body.quat), scalar_first=True).inv().apply(np.eye(3))
+        for axis, label in zip(world_axes, "xyz"):
+            body.add_joint(name=f"{name}_{label}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis)
+    if kind in ("free", "ball"):
+        body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_BALL, **options)
+
+
+def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
+    """The ``joints`` spec of ``scene`` (see the module docstring); MuJoCo steps at ``timestep`` seconds."""
+    spec = world.new_spec(scene, timestep=timestep)
+    cable = scene.cable
+    n = cable.n_segments
+    l0 = cable.segment_length
+    p = cable.particles
+    frames = segment_frames(p)
+    rel = relative_quats(frames)
+    straight = cable.young > 0.0
+    geom = world.cable_geom(scene, self_collision=self_collision)
+    options = ball_options(scene, timestep)
+    spec.option.viscosity = segment_viscosity(scene)
+    spec.option.integrator = integrator(scene, timestep)
+    spec.option.jacobian = jacobian(scene)
+    stiffen_obstacle_contacts(spec, scene, timestep)
+
+    add_anchors(spec, scene)
+    kind, tree_pin = root_joint(scene)
+    if tree_pin is not None and scene.pins[tree_pin].kind == "gripper":
+        parent, origin = spec.body(world.gripper_body(tree_pin)), np.zeros(3)
+    else:
+        parent, origin = spec.worldbody, p[0]
+    body = parent.add_body(name=body_name(0), pos=origin, quat=frames[0])
+    add_root_joints(body, kind, name=f"{body_name(0)}_root", options=options)
+    for i in range(n):
+        if i > 0:
+            quat = [1.0, 0.0, 0.0, 0.0] if straight else rel[i - 1]
+            body = body.add_body(name=body_name(i), pos=[l0, 0.0, 0.0], quat=quat)
+            body.add_joint(name=f"{body_name(i)}_ball", type=mujoco.mjtJoint.mjJNT_BALL,
+                           stiffness=[joint_stiffness(scene), 0.0, 0.0], **options)
+        body.add_geom(name=f"{body_name(i)}_capsule", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                      fromto=[0.0, 0.0, 0.0, l0, 0.0, 0.0], size=[cable.radius, 0.0, 0.0], mass=cable.mass / n,
+                      **geom)
+        body.add_site(name=world.particle_site(i))
+    body.add_site(name=world.particle_site(n), pos=[l0, 0.0, 0.0])
+
+    add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
+    if self_collision:
+        for i in range(n - 1):
+            spec.add_exclude(bodyname1=body_name(i), bodyname2=body_name(i + 1))
+    if straight:  # the root is compiled in its start pose: identity root qpos, then the start shape's ball quats
+        root = {"free": [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], "ball": [1.0, 0.0, 0.0, 0.0], None: []}[kind]
+        _add_start_key(spec, scene, np.concatenate([root, rel.ravel()]))
+    return spec
+
+
+def _add_start_key(spec: mujoco.MjSpec, scene: Scene, qpos: np.ndarray) -> None:
+    """Keyframe ``START_KEY`` with ``qpos`` and the grippers at their start positions."""
+    mocap = [scene.cable.particles[scene.pin_particle(k)] for k in scene.grippers]
+    key = spec.add_key(name=START_KEY, qpos=qpos)
+    if mocap:
+        key.mpos = np.concatenate(mocap)
+        key.mquat = np.tile([1.0, 0.0, 0.0, 0.0], len(mocap))
