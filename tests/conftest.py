@@ -1,5 +1,11 @@
 """Shared fixtures and independent references for the tests."""
 
+import os
+
+# Offscreen rendering on EGL: MuJoCo reads MUJOCO_GL when it is first imported, and some test modules import mujoco
+# before mjcable (which sets the same default).
+os.environ.setdefault("MUJOCO_GL", "egl")
+
 import numpy as np
 import pytest
 from scipy import optimize

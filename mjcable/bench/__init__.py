@@ -1,0 +1,55 @@
+"""Head-to-head benchmarks and stress tests of the cable models.
+
+``mjcable bench`` (:func:`cli_bench`) runs every model on the accuracy scenarios and writes a CSV, work-precision
+plots and Pareto tables; ``mjcable stress`` (:func:`cli_stress`) maps where each model diverges or tunnels.
+``python -m mjcable.bench [bench|stress] [--quick] [--out DIR] [--jobs N]`` runs either without the CLI.
+
+Example::
+
+    from mjcable import bench
+    rows = bench.run_bench("bench_out", quick=True, jobs=2)
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Optional, Sequence
+
+from mjcable.bench.accuracy import cli_bench, run_bench
+from mjcable.bench.stress import cli_stress, run_stress
+from mjcable.bench.sweep import MODEL_LABELS, OUTCOMES, Case, read_rows, run_case, run_sweep
+
+__all__ = [
+    "cli_bench",
+    "cli_stress",
+    "run_bench",
+    "run_stress",
+    "run_case",
+    "run_sweep",
+    "read_rows",
+    "Case",
+    "MODEL_LABELS",
+    "OUTCOMES",
+    "add_arguments",
+    "main",
+]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the flags shared by ``bench`` and ``stress``: ``--quick``, ``--out``, ``--jobs``, ``--models``."""
+    parser.add_argument("--quick", action="store_true", help="reduced sweep (bench < 4 min, stress < 10 min)")
+    parser.add_argument("--out", default=None, help="output folder (default bench_out / stress_out)")
+    parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPU count)")
+    parser.add_argument("--models", nargs="+", default=None, choices=list(MODEL_LABELS),
+                        help="model labels to run (default all)")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """``python -m mjcable.bench [bench|stress] [--quick] [--out DIR] [--jobs N] [--models ...]``."""
+    parser = argparse.ArgumentParser(prog="python -m mjcable.bench", description=__doc__.splitlines()[0])
+    parser.add_argument("command", nargs="?", default="bench", choices=("bench", "stress"))
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    if args.jobs is not None and args.jobs < 1:
+        parser.error(f"--jobs must be >= 1, got {args.jobs}")
+    return cli_bench(args) if args.command == "bench" else cli_stress(args)

@@ -1,0 +1,390 @@
+"""Benchmark scenarios: a scene, how long to run it, what to drive, and its error against an independent reference.
+
+Five accuracy scenarios (:data:`SCENARIOS`):
+
+* ``catenary``: the ``hang`` scene damped to rest; error = RMS distance in metres of the particles to the
+  inextensible catenary (:func:`mjcable.reference.catenary`).
+* ``chain``: a chain pinned at its top, released from a small mode-1 displacement, undamped; error = relative
+  error |ω / ω₁ − 1| of the swing's angular frequency (fitted to the centre of mass's x) against
+  ω₁ = (z₁ / 2) √(g / L).
+* ``cantilever``: a clamped horizontal rod (q L³ / E I ≈ 2) damped to rest; error = RMS distance in metres of
+  the particles to the heavy elastica at their arc lengths (:func:`mjcable.reference.cantilever`).
+* ``table``: the ``table`` scene (a wavy cable dropped 25 cm onto a table); error = RMS distance in metres to the
+  ideal rest state (:func:`mjcable.reference.table_rest`).
+* ``drape``: the ``drape`` scene (a straight cable falls onto a peg); error = RMS distance in metres of the
+  particles to the ideal drape (two vertical strands hanging from the peg,
+  :func:`mjcable.reference.drape_rest_distance`).
+
+Stress scenarios (:data:`STRESS_SCENARIOS`) vary one parameter each: ``stiffness`` (E·A on the drape), ``segments``
+(n_segments on the table drop), ``speed`` (a gripper yanks the cable's end) and ``load`` (a heavy mass at the end of
+a light cable hanging from one pin). :data:`EXTRA_SCENARIOS`: ``swing`` (the thesis's stiffness-effect grid) and
+``skip`` (the timing of what skipping unneeded contact work saves).
+
+Damping in the static scenarios only speeds up settling: it never changes a static equilibrium.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Callable, Dict, Optional
+
+import numpy as np
+from scipy import optimize
+
+from mjcable import reference, scenes
+from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
+
+__all__ = [
+    "Scenario",
+    "SCENARIOS",
+    "STRESS_SCENARIOS",
+    "EXTRA_SCENARIOS",
+    "attach_end_load",
+    "get",
+    "chain_scene",
+    "cantilever_scene",
+    "table_scene",
+    "yank_scene",
+    "hanging_scene",
+    "swing_scene",
+    "fit_frequency",
+    "CHAIN_AMPLITUDE",
+    "CANTILEVER_YOUNG",
+]
+
+RADIUS = 0.005  # m, cable radius of the built-in scenes
+MASS = 0.1  # kg per metre of cable
+CHAIN_TOP = 1.5  # m, height of the chain's pin
+CHAIN_AMPLITUDE = 0.01  # m, mode-1 displacement of the free end (1 % of L: frequency shift ~(A/L)² = 1e-4)
+CHAIN_CONTROL_POINTS = 9
+_FFT_PADDING = 16  # zero padding of the chain's periodogram (finer first guess of the frequency)
+CANTILEVER_YOUNG = 1e9  # Pa: q L³ / (E I) = 0.981 / (1e9 · 4.9e-10) ≈ 2.0, a large deflection (δ ≈ 0.23 L)
+CANTILEVER_HEIGHT = 1.0  # m
+DAMPING_CATENARY = 8.0  # 1/s, about critical for the catenary's slowest mode (ω ≈ 3.8 rad/s)
+DAMPING_CANTILEVER = 15.0  # 1/s, about critical for the cantilever's first mode (ω ≈ 7.8 rad/s)
+DAMPING_CONTACT = 5.0  # 1/s for the table and drape
+TABLE_TOP = 0.75  # m, height of the benchmark tables' top face
+TABLE_HALF_SIZE = (0.6, 0.4, 0.02)  # m
+TABLE_DROP = 0.1  # m from the table top to the benchmark table drop's cable
+YANK_DISTANCE = 0.5  # m travelled by the gripper
+YANK_DIRECTION = np.array([-1.0, 0.0, 1.0]) / math.sqrt(2.0)  # away from the cable and up
+YANK_SETTLE = 0.2  # s at rest before the yank
+YANK_AFTER = 0.5  # s after the gripper stops
+SWING_STRETCH_STIFFNESS = 20.0  # N: E·A of the stiffness-effect cable (W L / (2 E A) ≈ 2.5 % hanging)
+SWING_TIME = 0.25  # s, when the thesis took its stiffness-effect pictures
+UNUSED_FLOOR_HEIGHT = -1.0  # m, a floor the hanging cable (lowest point 0.73 m) never reaches
+
+
+@dataclasses.dataclass(frozen=True)
+class Scenario:
+    """One benchmark scenario.
+
+    Attributes:
+      name: label in the CSV's ``scenario`` column.
+      description: one line for reports.
+      make_scene: ``(n_segments, params) → Scene``; ``params`` is the case's dict of scenario parameters.
+      duration: simulated seconds (full sweep).
+      quick_duration: simulated seconds in ``--quick`` sweeps.
+      error_kind: what ``error`` means (units) in the CSV.
+      evaluate: ``(scene, final_positions, history) → error``; ``history`` holds sampled ``times`` (s) and
+        ``com_x`` (m) for the chain.
+      drive: optional ``(sim, t) → None`` moving grippers at simulated time ``t`` (before each step).
+      drive_end: simulated time after which ``drive`` no longer moves anything (energy checks start there);
+        the run lasts ``duration + drive_end(params)``.
+      passive: no energy is injected (energy growth means divergence).
+      setup: optional ``(sim, params) → None`` applied once after the simulator is built (e.g. an end load).
+      needs_com_x: sample the centre of mass's x for ``evaluate`` (the chain's frequency).
+      strain_limit: segment strain beyond which the run counts as diverged (``None``: the sweep's
+        ``STRAIN_LIMIT``; ``math.inf`` for the stiffness-effect grid, whose point is to show the stretch).
+    """
+
+    name: str
+    description: str
+    make_scene: Callable[[int, dict], Scene]
+    duration: float
+    quick_duration: float
+    error_kind: str
+    evaluate: Optional[Callable[[Scene, np.ndarray, dict], float]] = None
+    drive: Optional[Callable] = None
+    drive_end: Callable[[dict], float] = lambda params: 0.0
+    passive: bool = True
+    setup: Optional[Callable] = None
+    needs_com_x: bool = False
+    strain_limit: Optional[float] = None
+
+
+# ------------------------------------------------------------------------------------------------------ scenes
+
+
+def _cable(points, n_segments: int, **fields) -> CableSpec:
+    fields = {"radius": RADIUS, "mass": MASS, "damping": 0.0, "friction": 1.0, **fields}
+    return CableSpec(points, n_segments, fields.pop("radius"), fields.pop("mass"), **fields)
+
+
+def chain_scene(n_segments: int = 50, *, amplitude: float = CHAIN_AMPLITUDE, length: float = 1.0,
+                **fields) -> Scene:
+    """A chain hanging from a world pin at ``CHAIN_TOP``, displaced along x by ``amplitude`` (free end) in its
+    mode-1 shape J₀(z₁ √((L − s)/L)), undamped unless ``damping`` is given. No obstacles.
+
+    The rest length is that of the Catmull-Rom curve through the displaced points (within 1e-4 of ``length``);
+    the reference frequency uses ``scene.cable.length``.
+    """
+    s = np.linspace(0.0, length, CHAIN_CONTROL_POINTS)
+    x = amplitude * reference.chain_mode_shape(s, length)  # 0 at the pin (J₀(z₁) = 0), amplitude at the free end
+    points = np.stack([x, np.zeros_like(s), CHAIN_TOP - s], axis=1)
+    return Scene(_cable(points, n_segments, **fields), pins=(Pin(0),), name="chain")
+
+
+def cantilever_scene(n_segments: int = 50, *, young: float = CANTILEVER_YOUNG, length: float = 1.0,
+                     **fields) -> Scene:
+    """A straight horizontal rod along +x from (0, 0, ``CANTILEVER_HEIGHT``), clamped at its first particle."""
+    fields = {"damping": DAMPING_CANTILEVER, **fields}
+    points = [[0.0, 0.0, CANTILEVER_HEIGHT], [length, 0.0, CANTILEVER_HEIGHT]]
+    return Scene(_cable(points, n_segments, young=young, **fields), pins=(Pin(0, clamp=True),), name="cantilever")
+
+
+def table_scene(n_segments: int = 50, **fields) -> Scene:
+    """The benchmark's table drop: a wavy cable lying in one horizontal plane 10 cm above a table (floor below).
+
+    Unlike the built-in ``table`` scene (a 3D wave for the demo), every particle starts at the same height, so the
+    ideal rest state is known exactly (:func:`mjcable.reference.table_rest`).
+    """
+    z = TABLE_TOP + TABLE_DROP
+    points = [[-0.45, -0.1, z], [-0.15, 0.1, z], [0.15, -0.1, z], [0.45, 0.1, z]]
+    fields = {"damping": DAMPING_CONTACT, **fields}
+    return Scene(_cable(points, n_segments, **fields), obstacles=(Floor(), _table()), name="table")
+
+
+def _table() -> Box:
+    return Box(size=TABLE_HALF_SIZE, pos=(0.0, 0.0, TABLE_TOP - TABLE_HALF_SIZE[2]))
+
+
+def yank_scene(n_segments: int = 50, **fields) -> Scene:
+    """A straight cable lying on a table, its first particle held by a gripper (floor below)."""
+    z = TABLE_TOP + RADIUS
+    points = [[-0.45, 0.0, z], [0.45, 0.0, z]]
+    fields = {"damping": 0.2, **fields}
+    return Scene(_cable(points, n_segments, **fields), pins=(Pin(0, "gripper"),), obstacles=(Floor(), _table()),
+                 name="yank")
+
+
+def hanging_scene(n_segments: int = 50, *, length: float = 1.0, **fields) -> Scene:
+    """A cable hanging straight down from a world pin at ``CHAIN_TOP`` (the load scenario), floor below."""
+    points = [[0.0, 0.0, CHAIN_TOP], [0.0, 0.0, CHAIN_TOP - length]]
+    fields = {"damping": 1.0, **fields}
+    return Scene(_cable(points, n_segments, **fields), pins=(Pin(0),), obstacles=(Floor(),), name="hanging")
+
+
+def swing_scene(n_segments: int = 50, **fields) -> Scene:
+    """The stiffness-effect scene: a 1 m cable pinned at one end, released straight and horizontal at 1 m height."""
+    points = [[-0.5, 0.0, 1.0], [0.5, 0.0, 1.0]]
+    return Scene(_cable(points, n_segments, **fields), pins=(Pin(0),), name="swing")
+
+
+# --------------------------------------------------------------------------------------------------- measures
+
+
+def fit_frequency(times, values) -> float:
+    """Angular frequency in rad/s of the dominant oscillation in ``values(times)`` (uniformly sampled).
+
+    The highest peak of the zero-padded, Hann-windowed periodogram of the de-meaned signal gives a first guess,
+    refined by a least-squares fit of c + a cos(ωt) + b sin(ωt) within ±25 % (variable projection: linear in c,
+    a, b). Returns NaN when the signal does not oscillate (fewer than three crossings of its mean).
+    """
+    t = np.asarray(times, dtype=np.float64)
+    y = np.asarray(values, dtype=np.float64)
+    if len(t) < 8 or not np.all(np.isfinite(y)):
+        return math.nan
+    y0 = y - y.mean()
+    sign = np.signbit(y0)
+    if np.count_nonzero(sign[1:] != sign[:-1]) < 3:
+        return math.nan
+    step = float(np.mean(np.diff(t)))
+    size = _FFT_PADDING * len(t)
+    spectrum = np.abs(np.fft.rfft(y0 * np.hanning(len(t)), n=size))
+    omega = 2.0 * math.pi * np.fft.rfftfreq(size, d=step)
+    guess = float(omega[1 + int(np.argmax(spectrum[1:]))])
+
+    def residual(w):
+        basis = np.stack([np.ones_like(t), np.cos(w[0] * t), np.sin(w[0] * t)], axis=1)
+        coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
+        return basis @ coef - y
+
+    fit = optimize.least_squares(residual, [guess], bounds=([0.75 * guess], [1.25 * guess]), xtol=1e-14,
+                                 ftol=1e-14)
+    return float(fit.x[0])
+
+
+def _catenary_error(scene: Scene, x: np.ndarray, history: dict) -> float:
+    curve = reference.catenary(x[0], x[-1], scene.cable.length)
+    return float(np.sqrt(np.mean(reference.distance_to_curve(x, curve) ** 2)))
+
+
+def _chain_error(scene: Scene, x: np.ndarray, history: dict) -> float:
+    omega = fit_frequency(history["times"], history["com_x"])
+    return abs(omega / reference.chain_frequency(scene.cable.length) - 1.0)
+
+
+def _cantilever_reference(scene: Scene) -> np.ndarray:
+    cable = scene.cable
+    q = cable.linear_density * reference.G
+    shape = reference.cantilever(cable.length, q, cable.bending_stiffness)
+    s = np.arange(cable.n_particles) * cable.segment_length
+    xz = shape.at_arclength(s)
+    origin = np.asarray(cable.particles[0])
+    return origin + np.stack([xz[:, 0], np.zeros(len(s)), xz[:, 1]], axis=1)
+
+
+def _cantilever_error(scene: Scene, x: np.ndarray, history: dict) -> float:
+    ref = _cantilever_reference(scene)
+    return float(np.sqrt(np.mean(np.sum((x - ref) ** 2, axis=1))))
+
+
+def _table_error(scene: Scene, x: np.ndarray, history: dict) -> float:
+    table = next(ob for ob in scene.obstacles if isinstance(ob, Box))
+    top = table.pos[2] + table.size[2]  # the scene's table is not rotated
+    ref = reference.table_rest(scene.cable.particles, top, scene.cable.radius)
+    return float(np.sqrt(np.mean(np.sum((x - ref) ** 2, axis=1))))
+
+
+def _drape_error(scene: Scene, x: np.ndarray, history: dict) -> float:
+    peg = next(ob for ob in scene.obstacles if isinstance(ob, Cylinder))  # horizontal, along y
+    d = reference.drape_rest_distance(x, peg.pos, peg.radius, scene.cable.radius)
+    return float(np.sqrt(np.mean(d**2)))
+
+
+def _elongation(scene: Scene, x: np.ndarray, history: dict) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)) / scene.cable.length - 1.0)
+
+
+def _yank(sim, t: float, params: dict) -> None:
+    speed = float(params["speed"])
+    start = np.asarray(sim.scene.cable.particles[sim.scene.pin_particle(0)])
+    travelled = min(max(t - YANK_SETTLE, 0.0) * speed, YANK_DISTANCE)
+    sim.move_gripper(0, start + travelled * YANK_DIRECTION)
+
+
+def attach_end_load(sim, mass: float) -> None:
+    """Add ``mass`` kg to the last particle (the ``load`` stress scenario).
+
+    Native models: the body carrying site ``particle{n}`` gets the mass (inertia scaled alike) and
+    ``mj_setConst`` refreshes the derived constants. Particle solvers: the backend's inverse-mass array
+    (``inv_mass`` or ``w`` on the backend or its ``state``).
+    """
+    import mujoco
+
+    n = sim.scene.cable.n_segments
+    backend = sim._backend  # noqa: SLF001 - the bench reaches into the backend on purpose, for the load only
+    if sim.model in ("springs", "joints", "composite", "flexrod"):
+        m, d = sim.mj_model, sim.mj_data
+        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"particle{n}")
+        body = int(m.site_bodyid[site])
+        old = float(m.body_mass[body])
+        m.body_mass[body] = old + mass
+        if old > 0:
+            m.body_inertia[body] *= (old + mass) / old
+        state = [a.copy() for a in (d.qpos, d.qvel, d.act, d.mocap_pos, d.mocap_quat)]
+        mujoco.mj_setConst(m, d)  # uses d as scratch at qpos0: put the state back
+        for dst, src in zip((d.qpos, d.qvel, d.act, d.mocap_pos, d.mocap_quat), state):
+            dst[:] = src
+        mujoco.mj_forward(m, d)
+        return
+    for holder in (backend, getattr(backend, "state", None)):
+        for name in ("inv_mass", "w"):
+            inv = getattr(holder, name, None)
+            if isinstance(inv, np.ndarray) and inv.shape == (n + 1,):
+                if inv[n] > 0:
+                    inv[n] = 1.0 / (1.0 / inv[n] + mass)
+                return
+    raise NotImplementedError(f"model {sim.model!r} exposes no inverse-mass array for an end load")
+
+
+def _load_setup(sim, params: dict) -> None:
+    attach_end_load(sim, float(params["load"]) * sim.scene.cable.mass)
+
+
+def _skip_scene(n_segments: int, params: dict) -> Scene:
+    scene = scenes.get("hang", n_segments=n_segments, damping=DAMPING_CATENARY)
+    if params.get("variant") == "unused_floor":
+        scene = dataclasses.replace(scene, obstacles=(Floor(pos=(0.0, 0.0, UNUSED_FLOOR_HEIGHT)),))
+    return scene
+
+
+def _skip_setup(sim, params: dict) -> None:
+    """``contact_off``: MuJoCo's whole collision pipeline disabled (native models), the floor of what skipping
+    contacts can save."""
+    if params.get("variant") != "contact_off":
+        return
+    import mujoco
+
+    if sim.model not in ("springs", "joints", "composite", "flexrod"):
+        raise NotImplementedError("the contact_off variant applies to MuJoCo's native models only")
+    sim.mj_model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+
+
+SCENARIOS: Dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario("catenary", "1 m cable pinned 0.8 m apart, damped to rest; RMS distance to the catenary",
+                 lambda n, p: scenes.get("hang", n_segments=n, damping=DAMPING_CATENARY),
+                 duration=3.0, quick_duration=2.0, error_kind="m", evaluate=_catenary_error),
+        Scenario("chain", "chain pinned at its top swinging in mode 1; relative error of ω₁",
+                 lambda n, p: chain_scene(n), duration=5.0, quick_duration=3.5, error_kind="relative",
+                 evaluate=_chain_error, needs_com_x=True),
+        Scenario("cantilever", "clamped horizontal rod, q L³/EI ≈ 2, damped to rest; RMS distance to the elastica",
+                 lambda n, p: cantilever_scene(n), duration=3.0, quick_duration=2.0, error_kind="m",
+                 evaluate=_cantilever_error),
+        Scenario("table", "wavy cable dropped 25 cm onto a table; RMS distance to the ideal rest",
+                 lambda n, p: table_scene(n), duration=1.5, quick_duration=1.0, error_kind="m",
+                 evaluate=_table_error),
+        Scenario("drape", "straight cable falls onto a peg; RMS distance to the ideal drape",
+                 lambda n, p: scenes.get("drape", n_segments=n, damping=DAMPING_CONTACT),
+                 duration=3.0, quick_duration=2.0, error_kind="m", evaluate=_drape_error),
+    )
+}
+
+STRESS_SCENARIOS: Dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario("stiffness", "drape with axial stiffness E·A (N)",
+                 lambda n, p: scenes.get("drape", n_segments=n, damping=DAMPING_CONTACT,
+                                         stretch_stiffness=float(p["stiffness"])),
+                 duration=1.0, quick_duration=1.0, error_kind="none"),
+        Scenario("segments", "table drop with n_segments",
+                 lambda n, p: table_scene(n),
+                 duration=1.0, quick_duration=1.0, error_kind="none"),
+        Scenario("speed", "a gripper yanks the cable's end 0.5 m at the given speed (m/s)",
+                 lambda n, p: yank_scene(n), duration=YANK_AFTER, quick_duration=YANK_AFTER,
+                 error_kind="none", drive=_yank, passive=False,
+                 drive_end=lambda p: YANK_SETTLE + YANK_DISTANCE / float(p["speed"])),
+        Scenario("load", "light cable hanging from one pin with an end mass of `load` times its own",
+                 lambda n, p: hanging_scene(n), duration=1.0, quick_duration=1.0, error_kind="none",
+                 setup=_load_setup),
+    )
+}
+
+# Scenarios of their own: the thesis's stiffness-effect grid and the skip-what-is-not-needed timing.
+EXTRA_SCENARIOS: Dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario("swing", "1 m cable (E·A = 20 N) pinned at one end, released horizontal; its shape at t = 0.25 s; "
+                 "error = elongation (length / rest length − 1)",
+                 lambda n, p: swing_scene(n, stretch_stiffness=SWING_STRETCH_STIFFNESS),
+                 duration=SWING_TIME, quick_duration=SWING_TIME, error_kind="elongation", evaluate=_elongation,
+                 strain_limit=math.inf),
+        Scenario("skip", "hang (no obstacles) vs hang with an unused floor 2 m below vs collision disabled; "
+                 "error = RMS distance to the catenary",
+                 _skip_scene, duration=2.0, quick_duration=2.0, error_kind="m", evaluate=_catenary_error,
+                 setup=_skip_setup),
+    )
+}
+
+
+def get(name: str) -> Scenario:
+    """A scenario (accuracy, stress or extra) by name."""
+    for table in (SCENARIOS, STRESS_SCENARIOS, EXTRA_SCENARIOS):
+        if name in table:
+            return table[name]
+    names = tuple(SCENARIOS) + tuple(STRESS_SCENARIOS) + tuple(EXTRA_SCENARIOS)
+    raise ValueError(f"scenario must be one of {names}, got {name!r}")

@@ -1,0 +1,107 @@
+"""``mjcable stress``: where each model breaks. Sweeps axial stiffness (to 1e9 N), dt (to 50 ms), n_segments (to
+500), a gripper's speed (to 20 m/s) and a heavy end load on a light cable; every run gets an ``outcome``
+(``stable``, ``diverged``, ``tunneled``; see :mod:`mjcable.bench.sweep`).
+
+Outputs in ``--out`` (default ``stress_out``): ``stress.csv`` (one row per run, resumable),
+``stability_<model>.png`` (per model: each family's parameter against dt, coloured by outcome) and ``stress.md``
+(outcome counts and every failure's reason).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import List, Optional, Sequence
+
+from mjcable.bench import plots, sweep
+from mjcable.bench.accuracy import NATIVE_LABELS
+from mjcable.bench.sweep import Case
+
+__all__ = ["FAMILIES", "QUICK_FAMILIES", "stress_cases", "run_stress", "cli_stress"]
+
+# family → (parameter, full values, quick values); n_segments is the "segments" family's parameter.
+FAMILIES = {
+    "stiffness": ("stiffness", (1e2, 1e4, 1e6, 1e9)),
+    "segments": ("n_segments", (20, 100, 500)),
+    "speed": ("speed", (1.0, 5.0, 20.0)),
+    "load": ("load", (1.0, 10.0, 100.0, 1000.0)),
+}
+QUICK_FAMILIES = {
+    "stiffness": (1e4, 1e9),
+    "segments": (50, 500),
+    "speed": (2.0, 20.0),
+    "load": (1.0, 1000.0),
+}
+FULL_DTS = (0.001, 0.005, 0.02, 0.05)
+QUICK_DTS = (0.002, 0.05)
+TIME_CAP_FULL = 120.0  # s wall time per run
+TIME_CAP_QUICK = 25.0
+
+
+def _default_settings(model: str) -> tuple:
+    """Each model at its defaults (natives: their default substeps; particle solvers: 4 substeps × 1 iteration)."""
+    if model in NATIVE_LABELS:
+        return ()
+    return (("iterations", 1), ("substeps", 4))
+
+
+def stress_cases(*, quick: bool, models: Sequence[str] = tuple(sweep.MODEL_LABELS)) -> List[Case]:
+    """Every model × family value × dt, at the model's default settings."""
+    cap = TIME_CAP_QUICK if quick else TIME_CAP_FULL
+    dts = QUICK_DTS if quick else FULL_DTS
+    out = []
+    for model in models:
+        for family, (param, full) in FAMILIES.items():
+            values = QUICK_FAMILIES[family] if quick else full
+            for value in values:
+                for dt in dts:
+                    n = int(value) if param == "n_segments" else 50
+                    params = () if param == "n_segments" else ((param, float(value)),)
+                    out.append(Case(family, model, dt, n_segments=n, settings=_default_settings(model),
+                                    params=params, quick=quick, time_cap=cap))
+    return out
+
+
+def run_stress(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[Sequence[str]] = None,
+               progress: bool = True) -> List[dict]:
+    """Run (or resume) the stress sweep into ``out``; write the stability maps and ``stress.md``.
+
+    Returns:
+      The latest row per run of ``stress.csv``.
+    """
+    models = tuple(models or sweep.MODEL_LABELS)
+    for m in models:
+        if m not in sweep.MODEL_LABELS:
+            raise ValueError(f"models must be among {tuple(sweep.MODEL_LABELS)}, got {m!r}")
+    os.makedirs(out, exist_ok=True)
+    csv_path = os.path.join(out, "stress.csv")
+    start = time.perf_counter()
+    cases = stress_cases(quick=quick, models=models)
+    sweep.run_sweep(cases, csv_path, jobs=jobs, desc="stress", progress=progress)
+    wall = time.perf_counter() - start
+    keys = {c.key for c in cases}  # the folder may hold other sweeps: report this one
+    rows = [r for r in sweep.latest_rows(sweep.read_rows(csv_path)) if r["key"] in keys]
+    for model in models:
+        plots.stability_map(rows, model, os.path.join(out, f"stability_{model}.png"))
+    import platform
+
+    md = [f"# mjcable stress{' --quick' if quick else ''}\n",
+          f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s); {jobs} worker process(es); this call took "
+          f"{wall:.0f} s wall time. Families: stiffness (E·A in N, drape), segments (n_segments, table drop), "
+          "speed (gripper yank in m/s), load (end mass / cable mass, hanging cable).\n",
+          plots.outcome_markdown(rows)]
+    with open(os.path.join(out, "stress.md"), "w") as f:
+        f.write("\n".join(md))
+    return rows
+
+
+def cli_stress(args) -> int:
+    """Entry point of ``mjcable stress``: ``args`` has ``quick``, ``out`` and ``jobs`` (optional ``models``)."""
+    out = getattr(args, "out", None) or "stress_out"
+    jobs = getattr(args, "jobs", None) or sweep.default_jobs()
+    rows = run_stress(out, quick=bool(getattr(args, "quick", False)), jobs=int(jobs),
+                      models=getattr(args, "models", None))
+    counts = {o: sum(r["outcome"] == o for r in rows) for o in sweep.OUTCOMES}
+    print(f"wrote {os.path.join(out, 'stress.csv')} ({len(rows)} runs: "
+          + ", ".join(f"{v} {k}" for k, v in counts.items() if v) + "), stability maps and stress.md")
+    return 0

@@ -1,0 +1,245 @@
+"""Measurements on simulated cables: strain, shape error, penetration into obstacles, tunnelling, energy.
+
+Every function works on positions alone (``(n, 3)`` float64 arrays in metres, as ``Simulator.positions`` returns
+them), so all seven models are measured the same way. Penetration is geometric: the depth of each particle's
+sphere (the cable radius) inside each obstacle of the scene, from exact signed distances to floors, boxes,
+cylinders, capsules and spheres; :func:`contact_penetration` reads MuJoCo's own contact distances instead.
+
+Example::
+
+    sim = mjcable.Simulator(mjcable.scenes.get("table"), "xpbd")
+    sim.step(1.0)
+    metrics.max_strain(sim.positions, sim.scene.cable.segment_length)
+    metrics.penetration(sim.positions, sim.scene)
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Optional
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from mjcable.scene import GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
+
+__all__ = [
+    "segment_lengths",
+    "max_strain",
+    "rms_distance",
+    "max_distance",
+    "signed_distances",
+    "penetration",
+    "contact_penetration",
+    "crossed",
+    "tunneled",
+    "kinetic_energy",
+    "potential_energy",
+    "energy",
+    "TUNNEL_DEPTH",
+]
+
+TUNNEL_DEPTH = 1.0  # in cable radii: a particle centre this deep inside an obstacle's surface has tunnelled
+
+
+def _points(name: str, value) -> np.ndarray:
+    p = np.asarray(value, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ValueError(f"{name} must be an (n, 3) array in metres, got shape {np.shape(value)}")
+    return p
+
+
+def segment_lengths(positions) -> np.ndarray:
+    """``(n − 1,)`` lengths in metres of the segments between consecutive particles."""
+    return np.linalg.norm(np.diff(_points("positions", positions), axis=0), axis=1)
+
+
+def max_strain(positions, rest_length: float) -> float:
+    """max |l / l₀ − 1| over the segments (dimensionless).
+
+    Args:
+      positions: ``(n, 3)`` particles in metres.
+      rest_length: l₀ in metres (``scene.cable.segment_length``).
+    """
+    if not rest_length > 0:
+        raise ValueError(f"rest_length must be > 0 metres, got {rest_length!r}")
+    return float(np.max(np.abs(segment_lengths(positions) / rest_length - 1.0)))
+
+
+def rms_distance(positions, reference) -> float:
+    """RMS distance in metres between matching particles of two ``(n, 3)`` arrays."""
+    a, b = _points("positions", positions), _points("reference", reference)
+    if a.shape != b.shape:
+        raise ValueError(f"positions and reference must have the same shape, got {a.shape} and {b.shape}")
+    return float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=1))))
+
+
+def max_distance(positions, reference) -> float:
+    """Largest distance in metres between matching particles of two ``(n, 3)`` arrays."""
+    a, b = _points("positions", positions), _points("reference", reference)
+    if a.shape != b.shape:
+        raise ValueError(f"positions and reference must have the same shape, got {a.shape} and {b.shape}")
+    return float(np.sqrt(np.max(np.sum((a - b) ** 2, axis=1))))
+
+
+@functools.lru_cache(maxsize=256)
+def _frame(euler: tuple) -> np.ndarray:
+    """World-from-obstacle rotation matrix for MuJoCo's intrinsic xyz Euler angles in degrees (as build.world)."""
+    return Rotation.from_euler("XYZ", euler, degrees=True).as_matrix()
+
+
+def _local(points: np.ndarray, ob) -> np.ndarray:
+    """Points in the obstacle's frame."""
+    return (points - np.asarray(ob.pos)) @ _frame(tuple(ob.euler))
+
+
+def _signed_distance(points: np.ndarray, ob) -> np.ndarray:
+    """Signed distance in metres from each point to the obstacle's surface (negative inside)."""
+    q = _local(points, ob)
+    if isinstance(ob, Floor):
+        return q[:, 2]
+    if isinstance(ob, Box):
+        d = np.abs(q) - np.asarray(ob.size)
+        outside = np.linalg.norm(np.maximum(d, 0.0), axis=1)
+        inside = np.minimum(np.max(d, axis=1), 0.0)
+        return outside + inside
+    if isinstance(ob, Sphere):
+        return np.linalg.norm(q, axis=1) - ob.radius
+    if isinstance(ob, Capsule):  # before Cylinder: a Capsule is a Cylinder subclass
+        z = np.clip(q[:, 2], -ob.half_length, ob.half_length)
+        return np.linalg.norm(q - np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1), axis=1) - ob.radius
+    if isinstance(ob, Cylinder):
+        d = np.stack([np.hypot(q[:, 0], q[:, 1]) - ob.radius, np.abs(q[:, 2]) - ob.half_length], axis=1)
+        return np.minimum(np.max(d, axis=1), 0.0) + np.linalg.norm(np.maximum(d, 0.0), axis=1)
+    raise ValueError(f"unsupported obstacle {ob!r}")  # pragma: no cover - Scene validates obstacle types
+
+
+def signed_distances(positions, scene: Scene) -> np.ndarray:
+    """``(n_obstacles, n)`` signed distances in metres from each particle centre to each obstacle's surface
+    (negative inside)."""
+    x = _points("positions", positions)
+    if not scene.obstacles:
+        return np.zeros((0, len(x)))
+    return np.stack([_signed_distance(x, ob) for ob in scene.obstacles])
+
+
+def penetration(positions, scene: Scene) -> float:
+    """Deepest overlap in metres of a particle's sphere (the cable radius) with any obstacle: max(r − d, 0);
+    0.0 for a scene without obstacles."""
+    d = signed_distances(positions, scene)
+    if d.size == 0:
+        return 0.0
+    return float(max(scene.cable.radius - d.min(), 0.0))
+
+
+def contact_penetration(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """Deepest penetration in metres among MuJoCo's current contacts (``-min(contact.dist)``, 0 without contacts).
+
+    Runs ``mj_collision`` on a copy-free basis: it refreshes ``data.contact`` from the current positions (after
+    ``mj_kinematics``), which the next ``mj_step`` recomputes anyway.
+    """
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_collision(model, data)
+    if data.ncon == 0:
+        return 0.0
+    return float(max(-np.min(data.contact.dist[: data.ncon]), 0.0))
+
+
+def _thickness(ob) -> float:
+    """Distance in metres from an obstacle's surface to its middle (inf for a floor)."""
+    if isinstance(ob, Floor):
+        return math.inf
+    if isinstance(ob, Box):
+        return float(min(ob.size))
+    return float(ob.radius)
+
+
+def crossed(positions, scene: Scene, start_positions=None) -> np.ndarray:
+    """Which particles are going through an obstacle now: ``(n,)`` bool.
+
+    A particle is going through when its centre is past the obstacle's middle (deeper than the box's smallest
+    half-extent or the round obstacle's radius: contact will push it out on the far side), or, given
+    ``start_positions``, when it has crossed a box: it started outside the box's slab along one of the box's
+    axes, within its extent along the other two, and is now on the far side of that slab, still within the other
+    two extents (a cable fallen through a table).
+
+    Args:
+      positions: ``(n, 3)`` particles now, metres.
+      scene: the scene (obstacles).
+      start_positions: ``(n, 3)`` particles at the start, metres (default: ``scene.cable.particles``).
+    """
+    x = _points("positions", positions)
+    out = np.zeros(len(x), dtype=bool)
+    if not scene.obstacles:
+        return out
+    x0 = _points("start_positions", scene.cable.particles if start_positions is None else start_positions)
+    for ob in scene.obstacles:
+        out |= _signed_distance(x, ob) < -_thickness(ob)
+        if isinstance(ob, Box):
+            q, q0 = _local(x, ob), _local(x0, ob)
+            size = np.asarray(ob.size)
+            for axis in range(3):
+                others = [k for k in range(3) if k != axis]
+                within = np.all(np.abs(q[:, others]) <= size[others], axis=1)
+                within0 = np.all(np.abs(q0[:, others]) <= size[others], axis=1)
+                flipped = np.sign(q[:, axis]) * np.sign(q0[:, axis]) < 0
+                outside0 = np.abs(q0[:, axis]) > size[axis]
+                outside = np.abs(q[:, axis]) > size[axis]
+                out |= within & within0 & flipped & outside0 & outside
+    return out
+
+
+def tunneled(positions, scene: Scene, start_positions=None) -> np.ndarray:
+    """Which particles went through or stay stuck in an obstacle: ``(n,)`` bool.
+
+    :func:`crossed`, or a centre more than :data:`TUNNEL_DEPTH` cable radii inside an obstacle (below a floor).
+    Meant for a cable at rest: during an impact soft contacts may let a particle that deep for a moment, which
+    ``max_penetration`` records; :func:`crossed` is the test to apply during a run.
+
+    Args:
+      positions: ``(n, 3)`` particles now, metres.
+      scene: the scene (obstacles, cable radius).
+      start_positions: ``(n, 3)`` particles at the start, metres (default: ``scene.cable.particles``).
+    """
+    x = _points("positions", positions)
+    out = crossed(x, scene, start_positions)
+    depth = TUNNEL_DEPTH * scene.cable.radius
+    for ob in scene.obstacles:
+        out |= _signed_distance(x, ob) < -depth
+    return out
+
+
+def kinetic_energy(positions, previous, dt: float, masses) -> float:
+    """Kinetic energy in joules from the finite-difference velocities (positions − previous) / dt.
+
+    Args:
+      positions, previous: ``(n, 3)`` particles in metres, ``dt`` seconds apart.
+      dt: seconds (> 0).
+      masses: ``(n,)`` particle masses in kg (``scene.cable.particle_masses``).
+    """
+    x, x0 = _points("positions", positions), _points("previous", previous)
+    if not dt > 0:
+        raise ValueError(f"dt must be > 0 seconds, got {dt!r}")
+    v2 = np.sum((x - x0) ** 2, axis=1) / dt**2
+    return float(0.5 * np.dot(np.asarray(masses, dtype=np.float64), v2))
+
+
+def potential_energy(positions, masses) -> float:
+    """Gravitational potential energy in joules, m g z summed (zero at z = 0)."""
+    x = _points("positions", positions)
+    return float(-np.dot(np.asarray(masses, dtype=np.float64), x @ GRAVITY))
+
+
+def energy(positions, previous: Optional[np.ndarray], dt: float, masses) -> float:
+    """Kinetic plus gravitational energy in joules (kinetic energy 0 when ``previous`` is ``None``).
+
+    Elastic energy is left out on purpose: it is model-specific, small for a near-inextensible cable, and a
+    diverging simulation shows up in the kinetic term.
+    """
+    kinetic = 0.0 if previous is None else kinetic_energy(positions, previous, dt, masses)
+    return kinetic + potential_energy(positions, masses)
+
+
+
