@@ -95,7 +95,11 @@ def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.
     if model in NATIVE_MODELS:
         s = native_settings(model, **settings)
         module = importlib.import_module(f"mjcable.build.{model}")
-        return module.build(scene, timestep=dt / s.substeps, self_collision=s.self_collision)
+        spec = module.build(scene, timestep=dt / s.substeps, self_collision=s.self_collision)
+        if not scene.obstacles and not s.self_collision:
+            # nothing can touch: skip MuJoCo's collision pipeline altogether
+            spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+        return spec
     from mjcable.build import proxy
 
     return proxy.build(scene, dt=dt, **settings)
