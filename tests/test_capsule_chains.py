@@ -22,6 +22,8 @@ PIN_TOL = 1e-3  # m: how far a particle held by a soft connect equality may sit 
 BEAM_TOL = 0.10  # relative: discrete chain vs beam theory (the chain lacks the root half-segment's bend, ~2 l₀/L)
 FREE_FALL_TOL = 1e-2  # relative: semi-implicit Euler's first-order error after 250 steps is 1/250
 G = -GRAVITY[2]
+GRIPPER_SPEED = 0.5  # m/s: the environments' fastest gripper axis speed
+GRIPPER_REACH = 0.3  # m: how far from its start the randomly moving gripper may wander
 
 
 def _speed(sim: mjcable.Simulator, seconds: float = 0.02) -> float:
@@ -198,6 +200,46 @@ def test_every_pin_kind_holds(model, kind, index, clamp):
         sim.step()
     np.testing.assert_allclose(sim.positions[held], scene.cable.particles[held] + shift, atol=PIN_TOL)
     assert sim.positions[free_end, 2] < 1.0 + shift[2] - 0.2  # the rest swings down
+
+
+def _random_gripper_walk(sim: mjcable.Simulator, k: int, seconds: float, seed: int) -> np.ndarray:
+    """Move gripper ``k`` at ``GRIPPER_SPEED`` in a new random direction every 10 steps for ``seconds``, reflected
+    back whenever it would leave the ball of radius ``GRIPPER_REACH`` around its start; return its last position."""
+    rng = np.random.default_rng(seed)
+    home = sim.positions[sim.scene.pin_particle(k)].copy()
+    pos, velocity = home.copy(), np.zeros(3)
+    for s in range(round(seconds / sim.dt)):
+        if s % 10 == 0:
+            direction = rng.normal(size=3)
+            velocity = GRIPPER_SPEED * direction / np.linalg.norm(direction)
+        if np.linalg.norm(pos + velocity * sim.dt - home) > GRIPPER_REACH:
+            velocity = -velocity
+        pos = pos + velocity * sim.dt
+        sim.move_gripper(k, pos)
+        sim.step()  # SimulationDivergedError on any MuJoCo warning (mjWARN_BADQACC), NaN or runaway
+    return pos
+
+
+@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("socket", [False, True])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_far_end_gripper_moving_randomly_stays_stable(model, socket, seed):
+    """A gripper holding the cable's far end (particle n, not the chain's first particle), moved at 0.5 m/s in
+    random directions for 3 s, keeps the simulation finite and warning-free and carries its particle along; with a
+    weak socket at particle 0 (the ``unplug`` task) the plug is yanked out early and then dangles."""
+    hang = mjcable.scenes.get("hang")
+    pins = ((Pin(0, "socket", release_force=0.5),) if socket else ()) + (Pin(-1, "gripper"),)
+    scene = Scene(hang.cable, pins=pins)
+    gripper = len(pins) - 1
+    sim = mjcable.Simulator(scene, model)
+    pos = _random_gripper_walk(sim, gripper, 3.0, seed)
+    assert np.all(np.isfinite(sim.positions))
+    assert not np.any(sim.mj_data.warning.number)
+    np.testing.assert_allclose(sim.positions[-1], pos, atol=PIN_TOL)
+    chords = np.linalg.norm(np.diff(sim.positions, axis=0), axis=1)
+    np.testing.assert_allclose(chords, scene.cable.segment_length, rtol=1e-9)  # still one inextensible chain
+    if socket:
+        assert sim.released == {0}
 
 
 @pytest.mark.parametrize("model", MODELS)

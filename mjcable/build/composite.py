@@ -1,16 +1,17 @@
 """``composite``: MuJoCo's ``<composite type="cable">`` with the ``mujoco.elasticity.cable`` plugin.
 
-MuJoCo generates the cable from a minimal XML fragment (``vertex=`` the scene's start particles): a chain of capsule
-bodies ``cableB_first``, ``cableB_1`` … ``cableB_{n-2}``, ``cableB_last`` linked by ball joints ``cableJ_1`` …
-``cableJ_last``, body ``i``'s frame at particle ``i`` with its x axis along the segment (frames transported
-without twist), capsule geoms ``cableG{i}``, sites ``cableS_first`` / ``cableS_last``. MuJoCo 3.17's ``initial``
-sets the root joint ``cableJ_first`` (``"free"``: a free joint, ``"ball"``, ``"none"``: welded to its parent); we
-ask for ``"none"`` and add the root's joints as ``joints`` does (:func:`mjcable.build.joints.add_root_joints`), so
-that its rotation carries the same armature. Everything else is added with the MjSpec API after parsing: the
-``particle{i}`` sites (at body ``i``'s origin; ``particle{n}`` at the end of the last capsule), exact frames (the
-composite computes its own from single-precision vertices, 1e-6 m off), contact attributes, armature, pins, and
-the neighbour excludes (the composite's own name a missing body for 2 segments). The same capsule chain as
-``joints``, with MuJoCo's rod model for bending and twist instead of joint springs.
+MuJoCo generates the cable from a minimal XML fragment (``vertex=`` the scene's start particles in tree order, see
+the pins below): a chain of capsule bodies ``cableB_first``, ``cableB_1`` … ``cableB_{n-2}``, ``cableB_last``
+linked by ball joints ``cableJ_1`` … ``cableJ_last``, body ``i``'s frame at the tree's ``i``-th particle with its x
+axis along the segment (frames transported without twist), capsule geoms ``cableG{i}``, sites ``cableS_first`` /
+``cableS_last``. MuJoCo 3.17's ``initial`` sets the root joint ``cableJ_first`` (``"free"``: a free joint,
+``"ball"``, ``"none"``: welded to its parent); we ask for ``"none"`` and add the root's joints as ``joints`` does
+(:func:`mjcable.build.joints.add_root_joints`), so that its rotation carries the same armature. Everything else is
+added with the MjSpec API after parsing: the ``particle{i}`` sites (at the origin of the body that starts at
+particle ``i``; the tree's last particle at the end of the last capsule), exact frames (the composite computes its
+own from single-precision vertices, 1e-6 m off), contact attributes, armature, pins, and the neighbour excludes
+(the composite's own name a missing body for 2 segments). The same capsule chain as ``joints``, with MuJoCo's rod
+model for bending and twist instead of joint springs.
 
 Mapping from the physical cable:
 
@@ -31,9 +32,12 @@ Mapping from the physical cable:
   physics steps. None of these changes a static equilibrium;
 * friction and contacts: ``world.cable_geom`` on every capsule; neighbouring capsules never collide.
 
-Pins as in ``joints``: at particle 0 through the root's joints (no pin: free; world pin: ball, clamped: none;
-gripper: ball or none, the generated chain re-parented under the mocap body ``gripper{k}``; socket: free root with
-the releasable connect equalities ``pin{k}`` / ``pin{k}_clamp``), elsewhere with site-to-site connect equalities.
+Pins as in ``joints``: the chain is generated from the pinned end the tree is rooted at
+(:func:`mjcable.build.joints.tree_order`: particle 0, or particle n when only the far end has a world or gripper
+pin, so ``cableB_first`` then sits at particle n); the root pin through the root's joints (none: free; world pin:
+ball, clamped: none; gripper: ball or none, the generated chain re-parented under the mocap body ``gripper{k}``),
+every other pin (sockets always) with site-to-site connect equalities ``pin{k}`` / ``pin{k}_clamp``. A moving
+gripper held by an equality at the far leaf of the chain diverges (see ``joints``).
 """
 
 from __future__ import annotations
@@ -86,7 +90,7 @@ def _base_xml(scene: Scene) -> str:
     return _XML.format(
         extension=f'<extension><plugin plugin="{PLUGIN}"/></extension>' if stiff else "",
         prefix=PREFIX,
-        vertex=" ".join(repr(float(x)) for x in cable.particles.ravel()),
+        vertex=" ".join(repr(float(x)) for x in cable.particles[joints.tree_order(scene)].ravel()),
         plugin=_PLUGIN_XML.format(name=PLUGIN, bend=bend, twist=twist) if stiff else "",
         radius=cable.radius, mass=cable.mass / cable.n_segments,
     )
@@ -98,6 +102,8 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
     n = cable.n_segments
     l0 = cable.segment_length
     kind, tree_pin = joints.root_joint(scene)
+    order = joints.tree_order(scene)
+    p = cable.particles[order]  # tree order: body i's origin is p[i], particle order[i]
     spec = world.new_spec(scene, timestep=timestep, base_xml=_base_xml(scene))
     spec.option.viscosity = joints.segment_viscosity(scene)
     spec.option.integrator = joints.integrator(scene, timestep)
@@ -107,20 +113,19 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
 
     joints.add_anchors(spec, scene)
     if tree_pin is not None and scene.pins[tree_pin].kind == "gripper":
-        _reparent(spec, spec.body(body_name(0, n)), spec.body(world.gripper_body(tree_pin)),
-                  cable.particles[0])
+        _reparent(spec, spec.body(body_name(0, n)), spec.body(world.gripper_body(tree_pin)), p[0])
 
     geom = world.cable_geom(scene, self_collision=self_collision)
     joints.stiffen_obstacle_contacts(spec, scene, timestep)
     options = joints.ball_options(scene, timestep)
     # The composite computes its frames from single-precision vertices; put in exact ones of the same convention
     # (twist-free, x along each segment; only the root's roll about its axis differs, which nothing depends on).
-    frames = joints.segment_frames(cable.particles)
+    frames = joints.segment_frames(p)
     rel = joints.relative_quats(frames)
     for i in range(n):
         body = spec.body(body_name(i, n))
-        body.pos, body.quat = (cable.particles[0], frames[0]) if i == 0 else ([l0, 0.0, 0.0], rel[i - 1])
-        body.add_site(name=world.particle_site(i))
+        body.pos, body.quat = (p[0], frames[0]) if i == 0 else ([l0, 0.0, 0.0], rel[i - 1])
+        body.add_site(name=world.particle_site(order[i]))
         for g in body.geoms:
             g.fromto = [0.0, 0.0, 0.0, l0, 0.0, 0.0]
             for key, value in geom.items():
@@ -129,7 +134,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
             if j.type == mujoco.mjtJoint.mjJNT_BALL:
                 j.armature, j.damping = options["armature"], options["damping"]
     joints.add_root_joints(spec.body(body_name(0, n)), kind, name=f"{PREFIX}J_first", options=options)
-    spec.body(body_name(n - 1, n)).add_site(name=world.particle_site(n), pos=[l0, 0.0, 0.0])
+    spec.body(body_name(n - 1, n)).add_site(name=world.particle_site(order[n]), pos=[l0, 0.0, 0.0])
     for i in range(n - 1):
         spec.add_exclude(bodyname1=body_name(i, n), bodyname2=body_name(i + 1, n))
 

@@ -2,8 +2,9 @@
 
 Body ``cable{i}`` (``i = 0 .. n-1``) has its frame at particle ``i`` with its local x axis along the segment and
 carries a capsule from particle ``i`` to particle ``i+1``; body ``i+1`` hangs from body ``i`` at ``(l₀, 0, 0)`` by a
-ball joint. Site ``particle{i}`` sits at body ``i``'s origin, ``particle{n}`` at the end of the last capsule. The
-segment lengths are part of the kinematics, so the chain is exactly inextensible.
+ball joint. Site ``particle{i}`` sits at body ``i``'s origin, ``particle{n}`` at the end of the last capsule. (This
+is the tree order from particle 0; a cable held only at its far end runs the other way, from particle n: see the
+pins below.) The segment lengths are part of the kinematics, so the chain is exactly inextensible.
 
 Mapping from the physical cable:
 
@@ -44,12 +45,30 @@ Mapping from the physical cable:
 * cost: a serial chain's joint-space mass matrix is dense, so a step costs O(n³) (reduced coordinates);
   :func:`jacobian` picks the faster constraint Jacobian layout.
 
-Pins at particle 0 are part of the tree: no pin gives a free root; a world pin a ball joint (a clamped
-world pin none: welded to the world); a gripper pin makes the root a child of the mocap body ``gripper{k}``
-(ball joint, or none when clamped); a socket a free root held by the releasable connect equality ``pin{k}``
-(+ ``pin{k}_clamp`` at particle 1 when clamped). Pins elsewhere hold their particle with a site-to-site connect
-equality ``pin{k}`` to ``anchor{k}`` (a world site, or a site in the gripper's mocap body); a clamp also connects
-the neighbouring particle (``pin{k}_clamp`` to ``anchor{k}_clamp``), which fixes the tangent, not the twist.
+The tree is rooted at a pinned end (:func:`root_pin`, :func:`tree_order`): at particle 0, or, when only the far
+end (particle n) has a world or gripper pin, at particle n, the chain then running n → 0 (body ``i``'s origin is
+particle n − i; the sites keep their particle numbers). A gripper pin at an end is preferred to a world pin, and
+the root's pin is part of the tree: a world pin gives the root a ball joint (a clamped world pin none: welded to
+the world); a gripper pin makes the root a child of the mocap body ``gripper{k}`` (ball joint, or none when
+clamped); no such pin gives a free root. Every other pin holds its particle with a site-to-site connect equality
+``pin{k}`` to ``anchor{k}`` (a world site, or a site in the gripper's mocap body); a clamp also connects the
+neighbouring particle (``pin{k}_clamp`` to ``anchor{k}_clamp``), which fixes the tangent, not the twist. A socket
+is always such an equality (it lets go).
+
+Why the far-end gripper roots the tree: a connect equality at the deepest leaf of a free-rooted 50-segment chain
+is what a moving gripper makes diverge (``unplug``: socket at particle 0, gripper at particle n, mjWARN_BADQACC
+within 1 s of random 0.5 m/s motion; the ``hang`` cable held by a far-end gripper alone: within 1.3 to 2.7 s).
+MuJoCo's equality constraint is a velocity-level servo on the linearised end position: its reference
+acceleration −b·J·v − k·r knows neither the mocap anchor's velocity (a mocap body has none; its motion only shows
+up as position error r) nor the J̇·v term, the centripetal acceleration of the held end through all n nested
+rotations of the whirling chain. Both are left to the two-step Baumgarte spring, so the held end trails by up to
+1.5 cm (against 1.7 mm of anchor motion per step) before the blow-up, which starts in the ball joints next to
+the constraint (joint speeds 50 → 800 → 10⁵ rad/s within 6 steps). A softer equality (5 steps) only delays
+it (2 s); ``implicit``/``implicitfast`` do not help; ten times the whip armature, or relaxing it in 4 steps,
+hides it by changing the dynamics. As the tree's root the gripper moves its particle exactly (kinematically, like
+the gripper at particle 0, which never diverged), needs no equality, and steps about 2.5 times faster. Grippers
+away from the ends (tried at the middle particle) and the second gripper of a cable held at both ends (the chain
+closed into a loop, ``reach_sag``) stay connect equalities; random 0.5 m/s motion of those stays stable.
 
 ``composite`` builds the same chain with MuJoCo's ``<composite type="cable">`` and shares these helpers.
 """
@@ -70,6 +89,7 @@ from mjcable.scene import Scene
 __all__ = [
     "build",
     "root_pin",
+    "tree_order",
     "root_joint",
     "add_root_joints",
     "joint_stiffness",
@@ -103,11 +123,26 @@ def body_name(i: int) -> str:
 
 
 def root_pin(scene: Scene) -> Optional[int]:
-    """Index into ``scene.pins`` of the pin holding particle 0, or ``None``."""
-    for k in range(len(scene.pins)):
-        if scene.pin_particle(k) == 0:
-            return k
-    return None
+    """Index into ``scene.pins`` of the pin that the kinematic tree realises at its root, or ``None``.
+
+    A world or gripper pin at either end of the cable (a socket is releasable, so never a root): grippers before
+    world pins, particle 0 before particle n. Holding a moving gripper at the tree's root, rather than with a
+    connect equality at a leaf, is what keeps the chain stable under a moving gripper (see the module docstring).
+    """
+    n = scene.cable.n_segments
+    ends = [k for k, pin in enumerate(scene.pins) if pin.kind != "socket" and scene.pin_particle(k) in (0, n)]
+    if not ends:
+        return None
+    return min(ends, key=lambda k: (scene.pins[k].kind != "gripper", scene.pin_particle(k) != 0))
+
+
+def tree_order(scene: Scene) -> np.ndarray:
+    """``(n + 1,)`` particle indices in tree order: body ``j``'s origin is particle ``tree_order(scene)[j]``;
+    ``0 .. n``, or ``n .. 0`` when :func:`root_pin` holds particle n."""
+    n = scene.cable.n_segments
+    k = root_pin(scene)
+    order = np.arange(n + 1)
+    return order[::-1].copy() if k is not None and scene.pin_particle(k) == n else order
 
 
 def joint_stiffness(scene: Scene) -> float:
@@ -314,7 +349,8 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
     cable = scene.cable
     n = cable.n_segments
     l0 = cable.segment_length
-    p = cable.particles
+    order = tree_order(scene)
+    p = cable.particles[order]  # tree order: body i's origin is p[i], particle order[i]
     frames = segment_frames(p)
     rel = relative_quats(frames)
     straight = cable.young > 0.0
@@ -342,8 +378,8 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         body.add_geom(name=f"{body_name(i)}_capsule", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                       fromto=[0.0, 0.0, 0.0, l0, 0.0, 0.0], size=[cable.radius, 0.0, 0.0], mass=cable.mass / n,
                       **geom)
-        body.add_site(name=world.particle_site(i))
-    body.add_site(name=world.particle_site(n), pos=[l0, 0.0, 0.0])
+        body.add_site(name=world.particle_site(order[i]))
+    body.add_site(name=world.particle_site(order[n]), pos=[l0, 0.0, 0.0])
 
     add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
     if self_collision:
