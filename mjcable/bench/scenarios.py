@@ -15,7 +15,7 @@ Five accuracy scenarios (:data:`SCENARIOS`):
   particles to the ideal drape (two vertical strands hanging from the peg,
   :func:`mjcable.reference.drape_rest_distance`).
 
-Stress scenarios (:data:`STRESS_SCENARIOS`) vary one parameter each: ``stiffness`` (E·A on the drape), ``segments``
+Stress scenarios (:data:`STRESS_SCENARIOS`) vary one parameter each: ``stiffness`` (E·A on the drape), ``bending`` (E of a cantilever), ``segments``
 (n_segments on the table drop), ``speed`` (a gripper yanks the cable's end) and ``load`` (a heavy mass at the end of
 a light cable hanging from one pin). :data:`EXTRA_SCENARIOS`: ``swing`` (the thesis's stiffness-effect grid) and
 ``skip`` (the timing of what skipping unneeded contact work saves).
@@ -350,6 +350,9 @@ STRESS_SCENARIOS: Dict[str, Scenario] = {
         Scenario("stiffness", "drape with axial stiffness E·A (N)",
                  lambda n, p: scenes.get("drape", n_segments=n, damping=DAMPING_CONTACT,
                                          stretch_stiffness=float(p["stiffness"])),
+                 duration=1.0, quick_duration=1.0, error_kind="none"),
+        Scenario("bending", "clamped cantilever with Young's modulus `young` (Pa): explicit bending blows up",
+                 lambda n, p: cantilever_scene(n, young=float(p["young"])),
                  duration=1.0, quick_duration=1.0, error_kind="none"),
         Scenario("segments", "table drop with n_segments",
                  lambda n, p: table_scene(n),

@@ -22,12 +22,14 @@ __all__ = ["FAMILIES", "QUICK_FAMILIES", "stress_cases", "run_stress", "cli_stre
 # family → (parameter, full values, quick values); n_segments is the "segments" family's parameter.
 FAMILIES = {
     "stiffness": ("stiffness", (1e2, 1e4, 1e6, 1e9)),
+    "bending": ("young", (1e5, 1e7, 1e9, 1e11)),
     "segments": ("n_segments", (20, 100, 500)),
     "speed": ("speed", (1.0, 5.0, 20.0)),
     "load": ("load", (1.0, 10.0, 100.0, 1000.0)),
 }
 QUICK_FAMILIES = {
     "stiffness": (1e4, 1e9),
+    "bending": (1e6, 1e10),
     "segments": (50, 500),
     "speed": (2.0, 20.0),
     "load": (1.0, 1000.0),
