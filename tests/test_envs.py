@@ -6,7 +6,6 @@ Models whose module does not exist yet (``mjcable.build.<model>`` for native mod
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import unittest
 
@@ -16,7 +15,7 @@ from dm_env import test_utils
 from scipy import optimize
 
 from mjcable import envs
-from mjcable.build import MODELS, NATIVE_MODELS
+from mjcable.build import MODELS
 from mjcable.envs import workspace as ws
 from mjcable.scene import Box, Capsule, Cylinder, Floor, Sphere
 
@@ -25,20 +24,6 @@ SHORT_LIMIT = 0.2  # s: conformance episodes of 10 control steps, so the action 
 RANDOM_STEPS = 1000
 CABLE_MIN_REDNESS = 60  # red minus green and red minus blue of a cable pixel (material (0.85, 0.25, 0.12), shaded)
 CABLE_MIN_PIXELS = 150  # a 1 m cable about 1/3 of a 320-pixel-wide frame across, 2 or more pixels thick
-
-
-def _module_missing(model: str) -> bool:
-    if model in NATIVE_MODELS:
-        return importlib.util.find_spec(f"mjcable.build.{model}") is None
-    if importlib.util.find_spec("mjcable.solvers") is None:
-        return True
-    solvers = importlib.import_module("mjcable.solvers")
-    return not hasattr(solvers, "make_backend") or importlib.util.find_spec(f"mjcable.solvers.{model}") is None
-
-
-def _skip_missing(model: str) -> None:
-    if _module_missing(model):
-        pytest.skip(f"model {model!r} is not implemented yet (its module does not exist)")
 
 
 def _random_actions(spec, count: int, seed: int):
@@ -53,7 +38,6 @@ class _Conformance(test_utils.EnvironmentTestMixin):
     task = model = None
 
     def make_object_under_test(self):
-        _skip_missing(self.model)
         return envs.load(self.task, self.model, random=0, time_limit=SHORT_LIMIT)
 
     def make_action_sequence(self):
@@ -73,7 +57,6 @@ del _task, _model, _name
 @pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("task", TASKS)
 def test_random_policy(task, model):
-    _skip_missing(model)
     env = envs.load(task, model, random=7)
     spec = env.action_spec()
     obs_spec = env.observation_spec()
@@ -241,7 +224,6 @@ def test_clamp_keeps_grippers_out_of_the_peg_and_within_reach():
 
 @pytest.mark.parametrize("model", MODELS)
 def test_unplug_pull_releases_and_rest_does_not(model):
-    _skip_missing(model)
     env = envs.load("unplug", model, random=0)
     time_step = env.reset()
     for _ in range(100):  # 2 s at rest: the swinging cable pulls less than the release force
@@ -260,7 +242,6 @@ def test_unplug_pull_releases_and_rest_does_not(model):
 
 @pytest.mark.parametrize("model", MODELS)
 def test_reach_sag_settles_to_the_catenary_and_rewards_its_target(model):
-    _skip_missing(model)
     env = envs.load("reach_sag", model, random=0)
     env.reset()
     sags = []
@@ -292,7 +273,6 @@ _DRAPE_SCRIPT_KNOWN_FAILURES = {
     for m in MODELS
 ])
 def test_drape_scripted_solution(model):
-    _skip_missing(model)
     env = envs.load("drape", model, random=0)
     env.reset()
     physics = env.physics
@@ -312,7 +292,6 @@ def test_drape_scripted_solution(model):
 
 @pytest.mark.parametrize("model", MODELS)
 def test_render_shows_the_cable(model):
-    _skip_missing(model)
     env = envs.load("reach_sag", model, random=0)
     env.reset()
     image = env.physics.render(240, 320, camera_id="overview").astype(int)

@@ -1,6 +1,5 @@
 """MuJoCo's native cable models against physics: the catenary, and one physical cable across models."""
 
-import mujoco
 import numpy as np
 import pytest
 

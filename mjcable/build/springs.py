@@ -69,11 +69,10 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
     for k, pin in enumerate(scene.pins):
         held = [scene.pin_particle(k)] + ([scene.clamp_neighbour(k)] if pin.clamp else [])
         if pin.kind == "gripper":
-            anchor = world.add_anchor(spec, scene, k)
+            world.add_anchor(spec, scene, k)
             body = spec.body(world.gripper_body(k))
             for i in held:
                 parent[i] = body
-            del anchor
         elif pin.kind == "world":
             for i in held:
                 parent[i] = spec.worldbody
