@@ -207,10 +207,7 @@ def run_bench(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[
     Returns:
       The latest row per run of ``bench.csv``.
     """
-    models = tuple(models or sweep.MODEL_LABELS)
-    for m in models:
-        if m not in sweep.MODEL_LABELS:
-            raise ValueError(f"models must be among {tuple(sweep.MODEL_LABELS)}, got {m!r}")
+    models = sweep.model_labels(models)
     os.makedirs(out, exist_ok=True)
     csv_path = os.path.join(out, "bench.csv")
     cases = accuracy_cases(quick=quick, models=models, scenario_names=scenario_names)

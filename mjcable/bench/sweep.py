@@ -31,7 +31,7 @@ import signal
 import time
 import traceback
 import warnings
-from typing import Iterable, List
+from typing import Iterable, List, Optional, Sequence
 
 import numpy as np
 
@@ -42,6 +42,7 @@ from mjcable.errors import SimulationDivergedError
 __all__ = [
     "Case",
     "MODEL_LABELS",
+    "model_labels",
     "OUTCOMES",
     "COLUMNS",
     "run_case",
@@ -376,6 +377,15 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict) -> None
             row["error"] = float(scenario.evaluate(scene, x, history))
         except Exception as exc:  # noqa: BLE001 - a failed measurement is recorded, not raised
             row["reason"] = f"error measurement failed: {type(exc).__name__}: {exc}"
+
+
+def model_labels(models: Optional[Sequence[str]]) -> tuple:
+    """``models`` checked against :data:`MODEL_LABELS` (``None`` or empty: all of them)."""
+    labels = tuple(models or MODEL_LABELS)
+    for m in labels:
+        if m not in MODEL_LABELS:
+            raise ValueError(f"models must be among {tuple(MODEL_LABELS)}, got {m!r}")
+    return labels
 
 
 def solver_is_native(label: str) -> bool:

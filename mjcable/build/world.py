@@ -88,8 +88,9 @@ def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -
     spec.visual.global_.offheight = 720
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
     spec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
-    spec.stat.center = _cable_box(scene).mean(axis=0)
-    spec.stat.extent = max(float(np.ptp(_cable_box(scene), axis=0).max()), 0.2)
+    box = _cable_box(scene)
+    spec.stat.center = box.mean(axis=0)
+    spec.stat.extent = max(float(np.ptp(box, axis=0).max()), 0.2)
 
     spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
                      rgb1=[0.82, 0.84, 0.86], rgb2=[0.72, 0.74, 0.77], width=300, height=300)
@@ -107,7 +108,7 @@ def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -
                     diffuse=[0.6, 0.6, 0.6], castshadow=True)
     for i, ob in enumerate(scene.obstacles):
         _add_obstacle(world, scene, i, ob)
-    _add_camera(world, scene)
+    _add_camera(world, box)
     return spec
 
 
@@ -125,8 +126,8 @@ def _cable_box(scene: Scene) -> np.ndarray:
     return np.stack([lo, hi])
 
 
-def _add_camera(world, scene: Scene) -> None:
-    box = _cable_box(scene)
+def _add_camera(world, box: np.ndarray) -> None:
+    """A fixed camera in front of (−y) and above the (2, 3) bounds ``box`` that frames them."""
     center = box.mean(axis=0)
     half = 0.5 * np.ptp(box, axis=0) * _CAMERA_MARGIN
     radius = max(float(np.hypot(half[0], half[2])), float(half[1]), 0.15)

@@ -33,7 +33,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from mjcable.scene import Scene
-from mjcable.solvers.settings import SolverSettings
+from mjcable.solvers.settings import SolverSettings, bending_kind
 from mjcable.solvers.state import Rules
 
 __all__ = ["rules", "UserConstraint", "iteration_stiffness", "derived_bend_stiffness", "DEFAULT_GRADIENT_STEP"]
@@ -60,9 +60,7 @@ def derived_bend_stiffness(scene: Scene, h: float) -> float:
 def bending_rules(model: str, scene: Scene, settings: SolverSettings, h: float) -> tuple:
     """(bending kind, per-substep bend stiffness) for the stiffness-based solvers ``jakobsen`` and ``pbd``."""
     ei = scene.cable.bending_stiffness
-    bending = settings.bending
-    if bending == "auto":
-        bending = "curvature" if (ei > 0.0 or settings.bend_stiffness is not None) else "none"
+    bending = bending_kind(settings, ei, settings.bend_stiffness)
     if bending == "curvature":
         if settings.bend_stiffness is not None:
             k = float(settings.bend_stiffness)

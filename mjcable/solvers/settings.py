@@ -19,6 +19,7 @@ __all__ = [
     "COMMON_SETTINGS",
     "MODEL_SETTINGS",
     "DEFAULT_CONTACT_MARGIN",
+    "bending_kind",
 ]
 
 ORDERS = ("gauss-seidel", "jacobi", "direct")
@@ -133,6 +134,15 @@ class SolverSettings:
         object.__setattr__(self, "constraints", constraints)
         _optional_nonnegative("stretch_compliance", self.stretch_compliance)
         _optional_nonnegative("bend_compliance", self.bend_compliance)
+
+
+def bending_kind(settings: SolverSettings, bending_stiffness: float, override) -> str:
+    """The bending constraint in use: ``settings.bending``, where ``"auto"`` means ``"curvature"`` if the cable has
+    E·I > 0 (``bending_stiffness``, N·m²) or the model's bending override (``bend_stiffness`` or ``bend_compliance``)
+    is given, else ``"none"``."""
+    if settings.bending != "auto":
+        return settings.bending
+    return "curvature" if (bending_stiffness > 0.0 or override is not None) else "none"
 
 
 def solver_settings(model: str, **settings) -> SolverSettings:

@@ -18,7 +18,7 @@ iterations converge (or in one iteration with ``order="direct"``):
 from __future__ import annotations
 
 from mjcable.scene import Scene
-from mjcable.solvers.settings import SolverSettings
+from mjcable.solvers.settings import SolverSettings, bending_kind
 from mjcable.solvers.state import Rules
 
 __all__ = ["rules"]
@@ -34,9 +34,7 @@ def rules(scene: Scene, settings: SolverSettings, h: float) -> Rules:
         alpha_s = float(settings.stretch_compliance)
     else:
         alpha_s = 0.0 if cable.stretch_stiffness is None else l0 / cable.stretch_stiffness
-    bending = settings.bending
-    if bending == "auto":
-        bending = "curvature" if (ei > 0.0 or settings.bend_compliance is not None) else "none"
+    bending = bending_kind(settings, ei, settings.bend_compliance)
     if bending == "curvature":
         if settings.bend_compliance is not None:
             alpha_b = float(settings.bend_compliance)
