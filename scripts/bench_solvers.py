@@ -22,7 +22,7 @@ import numpy as np
 
 import mjcable
 from mjcable.build import proxy
-from mjcable.solvers import kernels
+from mjcable.solvers import kernels, query_kernels
 
 GRAVITY_Z = -9.81
 
@@ -130,7 +130,7 @@ def bench_proxy(repeats: int) -> dict:
     p[:, 2] = 0.75 + 0.9 * c.radius
     pos = np.zeros((c.n_segments, 3))
     quat = np.zeros((c.n_segments, 4))
-    kernels.proxy_poses(p, pos, quat)
+    query_kernels.proxy_poses(p, pos, quat)
     out = {}
     for kind in proxy.PROXY_KINDS:
         m = proxy.build(scene, dt=0.002, proxy=kind).compile()

@@ -9,7 +9,7 @@ import pytest
 
 import mjcable
 from mjcable.build import proxy
-from mjcable.solvers import UserConstraint, kernels
+from mjcable.solvers import UserConstraint, kernels, query_kernels
 
 G = 9.81
 PARTICLE = ("jakobsen", "pbd", "xpbd")
@@ -213,7 +213,7 @@ def test_self_collision_keeps_segments_apart():
         sim.step(1.0)
         x = sim.positions
         pair, geo = np.zeros((4000, 2), dtype=np.int64), np.zeros((4000, 5))
-        count = kernels.find_self_contacts(x, 0.05, pair, geo)
+        count = query_kernels.find_self_contacts(x, 0.05, pair, geo)
         a = (1 - geo[:count, :1]) * x[pair[:count, 0]] + geo[:count, :1] * x[pair[:count, 0] + 1]
         b = (1 - geo[:count, 1:2]) * x[pair[:count, 1]] + geo[:count, 1:2] * x[pair[:count, 1] + 1]
         gaps[on] = np.min(np.linalg.norm(a - b, axis=1))

@@ -16,7 +16,7 @@ import numpy as np
 
 from mjcable.build import proxy, world
 from mjcable.scene import GRAVITY, Scene
-from mjcable.solvers import jakobsen, kernels, pbd, xpbd
+from mjcable.solvers import jakobsen, kernels, pbd, query_kernels, xpbd
 from mjcable.solvers.contacts import ObstacleContacts
 from mjcable.solvers.settings import solver_settings
 from mjcable.solvers.state import empty_contacts, new_chain
@@ -133,12 +133,12 @@ class ParticleBackend:
             self.last_contact_count = len(contacts.seg)
         if s.self_collision:
             reach = 2.0 * self.scene.cable.radius + margin
-            count = kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
+            count = query_kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
             while count < 0:
                 cap = 2 * self._self_pair.shape[0]
                 self._self_pair = np.zeros((cap, 2), dtype=np.int64)
                 self._self_geo = np.zeros((cap, 5))
-                count = kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
+                count = query_kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
             contacts = contacts._replace(pair=self._self_pair[:count], sgeo=self._self_geo[:count],
                                          slam=np.zeros(count))
             self.last_self_contact_count = count
@@ -164,7 +164,7 @@ class ParticleBackend:
     def _sync(self) -> None:
         """Pose the proxy capsules (and particle sites) from the particles."""
         x = self.state.x
-        kernels.proxy_poses(x, self._pose_pos, self._pose_quat)
+        query_kernels.proxy_poses(x, self._pose_pos, self._pose_quat)
         mujoco.mj_kinematics(self.mj_model, self.mj_data)
         mujoco.mj_camlight(self.mj_model, self.mj_data)  # cameras and lights (a renderer reads cam_xpos)
         # the exact particles (the capsules keep their rest length, so their end sites are off by the strain)

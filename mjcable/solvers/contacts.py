@@ -6,7 +6,7 @@ the segment's axis point at fraction s, n·((1 − s) xᵢ + s x_{i+1}) >= n·q 
 and iteration (:func:`mjcable.solvers.kernels.contact_sweep`). While the cable's bounding box touches no
 obstacle's, the query is skipped.
 
-MuJoCo's contact (read in :func:`mjcable.solvers.kernels.contacts_from_mujoco`): ``dist`` (negative in
+MuJoCo's contact (read in :func:`mjcable.solvers.query_kernels.contacts_from_mujoco`): ``dist`` (negative in
 penetration), ``pos`` (midway between the surfaces), ``frame[:3]`` (the normal from ``geom[0]`` to ``geom[1]``).
 With n the normal pointing from the obstacle to the cable, the obstacle's surface point is q = pos − (dist/2) n and
 the capsule's axis point pos + (dist/2 + radius) n.
@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 
 from mjcable.scene import Scene
-from mjcable.solvers import kernels
+from mjcable.solvers import kernels, query_kernels
 
 __all__ = ["ObstacleContacts"]
 
@@ -56,7 +56,7 @@ class ObstacleContacts:
 
     def touching(self, x: np.ndarray, reach: float) -> bool:
         """Whether the bounding box of particles ``x`` (n, 3), grown by ``reach`` metres, touches any obstacle's."""
-        return kernels.touches_obstacles(x, reach, self._box_lo, self._box_hi, self._plane_n, self._plane_p)
+        return query_kernels.touches_obstacles(x, reach, self._box_lo, self._box_hi, self._plane_n, self._plane_p)
 
     def query(self, x: np.ndarray, margin: float, out: kernels.Contacts) -> kernels.Contacts:
         """Contacts of the proxy capsules (posed from ``x`` (n + 1, 3) beforehand) closer than ``margin`` metres.
@@ -78,6 +78,6 @@ class ObstacleContacts:
         count = 0
         if ncon:
             con = d.contact
-            count = kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
+            count = query_kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
                                                  m.geom_friction, x, self.radius, self._seg, self._geo)
         return out._replace(seg=self._seg[:count], geo=self._geo[:count], lam=self._lam[:count])

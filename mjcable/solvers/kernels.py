@@ -32,7 +32,6 @@ References:
         SIGGRAPH 2014 (Jacobi iterations with constraint averaging and over-relaxation ω).
   [D18] C. Deul, T. Kugelstadt, M. Weiler, J. Bender, "Direct Position-Based Solver for Stiff Rods", CGF 2018.
   [T20] the thesis "Physical Experiments in School with Unity: Cable Simulation", Mainz 2020 (``shared/seeds``).
-  [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
 """
 
 from __future__ import annotations
@@ -61,10 +60,6 @@ __all__ = [
     "self_contact_sweep",
     "direct_solve",
     "banded_ldlt_solve",
-    "find_self_contacts",
-    "touches_obstacles",
-    "contacts_from_mujoco",
-    "proxy_poses",
     "FP",
     "IP",
 ]
@@ -90,7 +85,6 @@ PHASE_ALL, PHASE_BEGIN, PHASE_ITERATE, PHASE_END = 0, 1, 2, 3
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
 _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
-_PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
 # Relative compliance added to every row of the direct solve: it keeps hard, redundant rows (e.g. inextensible
 # stretch with hard curvature bending: more rows than degrees of freedom) solvable and is far below any physical one.
 _DIRECT_REGULARIZATION = 1e-10
@@ -707,161 +701,3 @@ def run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, 
               row_p, prow, pslot, band, grad, rhs, fp, ip)
     C = Contacts(seg, geo, lam, pair, sgeo, slam)
     return run_substeps(S, C, n_sub, phase, sub)
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# Queries and the proxy.
-
-
-@_inline
-def _segment_closest(a, e, f, c, d1d2):
-    """Fractions (s, t) of the closest points of two segments P(s) = p₀ + s d₁, Q(t) = q₀ + t d₂ from
-    a = d₁·d₁, e = d₂·d₂, f = d₂·r, c = d₁·r, d1d2 = d₁·d₂, r = p₀ − q₀ ([E05] §5.1.9)."""
-    denom = a * e - d1d2 * d1d2
-    s = 0.0
-    if denom > _PARALLEL * a * e:  # not parallel
-        s = min(max((d1d2 * f - c * e) / denom, 0.0), 1.0)
-    t = (d1d2 * s + f) / e if e > 0.0 else 0.0
-    if t < 0.0:
-        t = 0.0
-        s = min(max(-c / a, 0.0), 1.0) if a > 0.0 else 0.0
-    elif t > 1.0:
-        t = 1.0
-        s = min(max((d1d2 - c) / a, 0.0), 1.0) if a > 0.0 else 0.0
-    return s, t
-
-
-@_jit
-def find_self_contacts(x, reach, pair, sgeo):
-    """Pairs of non-adjacent segments (|i − j| ≥ 2, each pair once) whose axes are closer than ``reach`` metres;
-    fills ``pair`` (cap, 2) and ``sgeo`` (cap, 5) = [s, t, n] with n the unit normal from segment j to segment i.
-    Returns the number found, or −1 if more than ``cap`` (the caller grows the buffers and asks again)."""
-    nseg = x.shape[0] - 1
-    lo = np.empty((nseg, 3))
-    hi = np.empty((nseg, 3))
-    for i in range(nseg):
-        for comp in range(3):
-            lo[i, comp] = min(x[i, comp], x[i + 1, comp])
-            hi[i, comp] = max(x[i, comp], x[i + 1, comp])
-    count = 0
-    cap = pair.shape[0]
-    for i in range(nseg):
-        for j in range(i + 2, nseg):
-            if (lo[i, 0] > hi[j, 0] + reach or lo[j, 0] > hi[i, 0] + reach or lo[i, 1] > hi[j, 1] + reach
-                    or lo[j, 1] > hi[i, 1] + reach or lo[i, 2] > hi[j, 2] + reach or lo[j, 2] > hi[i, 2] + reach):
-                continue
-            a = e = f = c = d1d2 = 0.0
-            for comp in range(3):
-                d1 = x[i + 1, comp] - x[i, comp]
-                d2 = x[j + 1, comp] - x[j, comp]
-                r = x[i, comp] - x[j, comp]
-                a += d1 * d1
-                e += d2 * d2
-                f += d2 * r
-                c += d1 * r
-                d1d2 += d1 * d2
-            s, t = _segment_closest(a, e, f, c, d1d2)
-            d0 = (1.0 - s) * x[i, 0] + s * x[i + 1, 0] - (1.0 - t) * x[j, 0] - t * x[j + 1, 0]
-            d1 = (1.0 - s) * x[i, 1] + s * x[i + 1, 1] - (1.0 - t) * x[j, 1] - t * x[j + 1, 1]
-            d2 = (1.0 - s) * x[i, 2] + s * x[i + 1, 2] - (1.0 - t) * x[j, 2] - t * x[j + 1, 2]
-            dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            if dist >= reach or dist < _TINY_LENGTH:
-                continue
-            if count == cap:
-                return -1
-            pair[count, 0] = i
-            pair[count, 1] = j
-            sgeo[count, 0] = s
-            sgeo[count, 1] = t
-            sgeo[count, 2] = d0 / dist
-            sgeo[count, 3] = d1 / dist
-            sgeo[count, 4] = d2 / dist
-            count += 1
-    return count
-
-
-@_jit
-def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
-    """Whether the bounding box of particles ``x`` (N, 3), grown by ``reach`` metres, touches an obstacle: a world
-    bounding box (``box_lo``, ``box_hi`` (B, 3)) or the solid side of a plane (unit normal ``plane_n``, point
-    ``plane_p`` (F, 3))."""
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for comp in range(3):
-        lo[comp] = x[:, comp].min() - reach
-        hi[comp] = x[:, comp].max() + reach
-    for k in range(box_lo.shape[0]):
-        if (lo[0] <= box_hi[k, 0] and hi[0] >= box_lo[k, 0] and lo[1] <= box_hi[k, 1] and hi[1] >= box_lo[k, 1]
-                and lo[2] <= box_hi[k, 2] and hi[2] >= box_lo[k, 2]):
-            return True
-    for k in range(plane_n.shape[0]):
-        depth = 0.0
-        for comp in range(3):
-            depth += plane_n[k, comp] * (0.5 * (lo[comp] + hi[comp]) - plane_p[k, comp])
-            depth -= abs(plane_n[k, comp]) * 0.5 * (hi[comp] - lo[comp])
-        if depth <= 0.0:
-            return True
-    return False
-
-
-@_jit
-def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, geom_friction, x, radius, seg, geo):
-    """Turn MuJoCo's contacts (``geom`` (c, 2), ``dist`` (c,), ``pos`` (c, 3), ``frame`` (c, 9)) between proxy
-    capsules and obstacles into half-space constraints: fills ``seg`` and ``geo`` = [s, n, offset, μ] (see
-    :func:`contact_sweep`) and returns their number.
-
-    MuJoCo's normal points from geom[0] to geom[1] and ``pos`` lies midway between the surfaces; with n the normal
-    from the obstacle to the cable, the obstacle's surface point is q = pos − (dist/2) n and the capsule's axis
-    point pos + (dist/2 + radius) n, at fraction s along its segment; offset = n·q + radius; μ is the obstacle's
-    (obstacles carry the higher priority, so theirs is the μ in force)."""
-    count = 0
-    for c in range(dist.shape[0]):
-        s0 = segment_of_geom[geom[c, 0]]
-        s1 = segment_of_geom[geom[c, 1]]
-        if (s0 >= 0) == (s1 >= 0):
-            continue
-        if s0 >= 0:
-            i, other, sign = s0, geom[c, 1], -1.0
-        else:
-            i, other, sign = s1, geom[c, 0], 1.0
-        nx, ny, nz = sign * frame[c, 0], sign * frame[c, 1], sign * frame[c, 2]
-        half = 0.5 * dist[c]
-        qx, qy, qz = pos[c, 0] - half * nx, pos[c, 1] - half * ny, pos[c, 2] - half * nz
-        reach = half + radius
-        px, py, pz = pos[c, 0] + reach * nx, pos[c, 1] + reach * ny, pos[c, 2] + reach * nz
-        ex, ey, ez = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
-        e2 = ex * ex + ey * ey + ez * ez
-        frac = 0.0
-        if e2 > 0.0:
-            frac = ((px - x[i, 0]) * ex + (py - x[i, 1]) * ey + (pz - x[i, 2]) * ez) / e2
-        seg[count] = i
-        geo[count, 0] = min(max(frac, 0.0), 1.0)
-        geo[count, 1], geo[count, 2], geo[count, 3] = nx, ny, nz
-        geo[count, 4] = nx * qx + ny * qy + nz * qz + radius
-        geo[count, 5] = geom_friction[other, 0]
-        count += 1
-    return count
-
-
-@_jit
-def proxy_poses(x, pos, quat):
-    """Midpoints ``pos`` (n, 3) and quaternions ``quat`` (n, 4) (w, x, y, z) turning +z onto each segment of the
-    particle chain ``x`` (n + 1, 3): the proxy capsules' poses."""
-    for i in range(x.shape[0] - 1):
-        dx = x[i + 1, 0] - x[i, 0]
-        dy = x[i + 1, 1] - x[i, 1]
-        dz = x[i + 1, 2] - x[i, 2]
-        pos[i, 0] = 0.5 * (x[i, 0] + x[i + 1, 0])
-        pos[i, 1] = 0.5 * (x[i, 1] + x[i + 1, 1])
-        pos[i, 2] = 0.5 * (x[i, 2] + x[i + 1, 2])
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if length < _TINY_LENGTH:
-            quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = 1.0, 0.0, 0.0, 0.0
-            continue
-        dx, dy, dz = dx / length, dy / length, dz / length
-        qw, qx, qy = 1.0 + dz, -dy, dx  # half-way quaternion between +z and d: (1 + z·d, z × d)
-        norm = math.sqrt(qw * qw + qx * qx + qy * qy)
-        if norm < _TINY_LENGTH:  # d = −z: half a turn about x
-            quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = 0.0, 1.0, 0.0, 0.0
-        else:
-            quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = qw / norm, qx / norm, qy / norm, 0.0
