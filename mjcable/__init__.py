@@ -7,12 +7,12 @@ import os
 # it is first imported, so this must come before anything imports mujoco.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from mjcable import scenes  # noqa: E402
-from mjcable.build import MODELS, NATIVE_MODELS, PARTICLE_MODELS, build
-from mjcable.errors import SimulationDivergedError
-from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Pin, Scene, Sphere
-from mjcable.simulator import Simulator
-from mjcable.spline import CatmullRom, resample
+from mjcable import catalog, mjcf, scenes, solvers  # noqa: E402
+from mjcable.catalog import build  # noqa: E402
+from mjcable.errors import SimulationDivergedError  # noqa: E402
+from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Pin, Scene, Sphere  # noqa: E402
+from mjcable.simulator import Simulator, Trajectory  # noqa: E402
+from mjcable.spline import CatmullRom, resample  # noqa: E402
 
 __all__ = [
     "CatmullRom",
@@ -26,8 +26,12 @@ __all__ = [
     "Sphere",
     "Scene",
     "scenes",
+    "catalog",
+    "mjcf",
+    "solvers",
     "build",
     "Simulator",
+    "Trajectory",
     "SimulationDivergedError",
     "MODELS",
     "NATIVE_MODELS",
@@ -35,3 +39,14 @@ __all__ = [
 ]
 
 __version__ = "0.1.0"
+
+
+_FAMILY_VIEWS = {"MODELS": None, "NATIVE_MODELS": "native", "PARTICLE_MODELS": "particle"}
+
+
+def __getattr__(name: str):
+    """``MODELS``, ``NATIVE_MODELS`` and ``PARTICLE_MODELS``: live views of :mod:`mjcable.catalog` (a model
+    registered later shows up in them)."""
+    if name in _FAMILY_VIEWS:
+        return catalog.names(_FAMILY_VIEWS[name])
+    raise AttributeError(f"module 'mjcable' has no attribute {name!r}")

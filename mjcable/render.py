@@ -45,7 +45,7 @@ import mujoco  # mjcable/__init__.py has set MUJOCO_GL=egl (unless set) before m
 import numpy as np
 
 from mjcable import scenes
-from mjcable.build import MODELS, check_model
+from mjcable import catalog
 from mjcable.errors import SimulationDivergedError
 from mjcable.io import atomic_path
 from mjcable.scene import Scene
@@ -462,7 +462,7 @@ def _make_tiles(scene: Scene, models: Sequence[str], opts: _Options, dt: float, 
 # ---------------------------------------------------------------------------------------------------- public
 
 
-def available_models(scene: SceneLike, *, models: Sequence[str] = MODELS, dt: float = 0.002,
+def available_models(scene: SceneLike, *, models: Optional[Sequence[str]] = None, dt: float = 0.002,
                      settings: Optional[Mapping[str, dict]] = None) -> Tuple[Tuple[str, ...], Dict[str, Exception]]:
     """The models that build and start a simulation of ``scene``.
 
@@ -480,10 +480,11 @@ def available_models(scene: SceneLike, *, models: Sequence[str] = MODELS, dt: fl
       that failed with an error other than not being implemented.
     """
     scene = _check_scene(scene)
+    models = catalog.names() if models is None else models
     settings = _check_settings(settings, models)
     available, problems = [], {}
     for model in models:
-        check_model(model)
+        catalog.check_model(model)
         try:
             Simulator(scene, model, dt=dt, **dict(settings.get(model, {})))
         except UNAVAILABLE_ERRORS:
@@ -543,7 +544,7 @@ def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width
 
 def _check_single(scene, model, seconds, fps, width, height, camera, elevation, min_cable_px, label, progress):
     scene = _check_scene(scene)
-    check_model(model)
+    catalog.check_model(model)
     opts = _options(seconds, fps, width, height, camera, elevation, min_cable_px, progress)
     if label is None:
         label = model
@@ -580,9 +581,9 @@ def _grid_options(scene, models, seconds, fps, tile_width, tile_height, columns,
                   progress, settings):
     scene = _check_scene(scene)
     if isinstance(models, str) or not isinstance(models, Sequence) or not models:
-        raise ValueError(f"models must be a non-empty sequence of names from {MODELS}, got {models!r}")
+        raise ValueError(f"models must be a non-empty sequence of names from {catalog.names()}, got {models!r}")
     for model in models:
-        check_model(model)
+        catalog.check_model(model)
     if len(set(models)) != len(models):
         raise ValueError(f"models must not repeat a name, got {list(models)}")
     opts = _options(seconds, fps, tile_width, tile_height, camera, elevation, min_cable_px, progress)

@@ -1,126 +1,46 @@
-"""One :class:`Simulator` over MuJoCo's native cable models and the particle solvers.
+"""One :class:`Simulator` over every model of the catalogue: MuJoCo's native cable models and the particle solvers.
 
 MuJoCo warnings (above all ``mjWARN_BADQACC``, after which MuJoCo silently resets the state), NaNs and runaway
-positions or speeds become :class:`~mjcable.errors.SimulationDivergedError` here.
+positions or speeds become :class:`~mjcable.errors.SimulationDivergedError` here. Everything below the Simulator
+(the backends of :mod:`mjcable.backends`) is reached only through it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Optional
 
 import mujoco
 import numpy as np
 
-from mjcable.build import NATIVE_MODELS, START_KEY, build, check_dt, check_model, native_settings
-from mjcable.build import world
+from mjcable import _validate, catalog
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
 
-__all__ = ["Simulator", "MAX_SPEED", "MAX_DISTANCE"]
+__all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE"]
 
 MAX_SPEED = 200.0  # m/s: a cable particle faster than this has diverged
 MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
-_DIVERGENCE_WARNINGS = {  # int keys: index into data.warning
-    int(mujoco.mjtWarning.mjWARN_BADQACC): "MuJoCo reset the state after a bad acceleration (mjWARN_BADQACC)",
-    int(mujoco.mjtWarning.mjWARN_BADQVEL): "bad velocity (mjWARN_BADQVEL)",
-    int(mujoco.mjtWarning.mjWARN_BADQPOS): "bad position (mjWARN_BADQPOS)",
-    int(mujoco.mjtWarning.mjWARN_CONTACTFULL): "contact buffer full (mjWARN_CONTACTFULL)",
-    int(mujoco.mjtWarning.mjWARN_CNSTRFULL): "constraint buffer full (mjWARN_CNSTRFULL)",
-}
 _STEP_EPS = 1e-9  # fraction of dt forgiven when counting whole steps in an accumulated duration
 
 
-class _NativeBackend:
-    """MuJoCo's own cable models: ``mj_step`` ``substeps`` times per ``dt``."""
+@dataclasses.dataclass(frozen=True)
+class Trajectory:
+    """States recorded by :meth:`Simulator.rollout`, in the spirit of ``mujoco.rollout``.
 
-    def __init__(self, scene: Scene, model: str, dt: float, settings: dict):
-        s = native_settings(model, **settings)
-        self.substeps = s.substeps
-        spec = build(scene, model, dt=dt, **settings)
-        self.spec = spec
-        self.mj_model = spec.compile()
-        self.mj_data = mujoco.MjData(self.mj_model)
-        key = mujoco.mj_name2id(self.mj_model, mujoco.mjtObj.mjOBJ_KEY, START_KEY)
-        if key >= 0:
-            mujoco.mj_resetDataKeyframe(self.mj_model, self.mj_data, key)
-        mujoco.mj_forward(self.mj_model, self.mj_data)
-        m = self.mj_model
-        n = scene.cable.n_particles
-        self._sites = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i))
-                                for i in range(n)])
-        if np.any(self._sites < 0):
-            raise RuntimeError(f"model {model!r} lacks particle sites")  # pragma: no cover - a generator bug
-        self._mocap = {k: int(m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, world.gripper_body(k))])
-                       for k in scene.grippers}
-        self._sockets = []  # (release force, [equality ids])
-        for k, pin in enumerate(scene.pins):
-            if pin.kind == "socket":
-                ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c))
-                       for c in (False, True)]
-                self._sockets.append((pin.release_force, [i for i in ids if i >= 0]))
-        self._socket_pins = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]
-        self._gripper_from = {}  # mocap id -> its position at the start of the next step (grippers moved since)
+    Attributes:
+      times: ``(k,)`` simulated time in seconds of each row.
+      positions: ``(k, n_segments + 1, 3)`` particle positions in metres.
+      velocities: ``(k, n_segments + 1, 3)`` particle velocities in m/s.
+    """
 
-    def step(self) -> Optional[str]:
-        m, d = self.mj_model, self.mj_data
-        if self._gripper_from and self.substeps > 1:
-            # A moved gripper travels linearly over the substeps, as the particle backend's pins do: a jump at the
-            # first substep would inject energy into the stiff links holding its particle.
-            moved = list(self._gripper_from)
-            start = np.array([self._gripper_from[i] for i in moved])
-            target = d.mocap_pos[moved].copy()
-            for s in range(1, self.substeps + 1):
-                d.mocap_pos[moved] = start + (target - start) * (s / self.substeps)
-                mujoco.mj_step(m, d)
-                if self._sockets:
-                    self._release_sockets()
-        elif self._sockets:
-            for _ in range(self.substeps):
-                mujoco.mj_step(m, d)
-                self._release_sockets()
-        else:
-            mujoco.mj_step(m, d, nstep=self.substeps)
-        self._gripper_from = {}
-        counts = d.warning.number  # a writable view; MuJoCo's own reset zeroes it, so read and clear per dt
-        bad = [w for w in _DIVERGENCE_WARNINGS if counts[w] > 0]
-        if bad:
-            counts[bad] = 0
-            return "; ".join(_DIVERGENCE_WARNINGS[w] for w in bad)
-        mujoco.mj_kinematics(m, d)  # xpos/site_xpos describe the previous state after mj_step
-        if m.nflex:
-            mujoco.mj_flex(m, d)  # flexvert_xpos too (rendering draws the flex from it)
-        return None
+    times: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
 
-    def _release_sockets(self) -> None:
-        d = self.mj_data
-        rows = d.efc_type[: d.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
-        for release_force, ids in self._sockets:
-            if not d.eq_active[ids[0]]:
-                continue
-            # the socket's force on the plug: the pin's and (if clamped) the clamp's connect forces together
-            total = np.zeros(3)
-            for i in ids:
-                total += d.efc_force[: d.nefc][rows & (d.efc_id[: d.nefc] == i)][:3]
-            if float(np.linalg.norm(total)) > release_force:
-                d.eq_active[ids] = 0
-
-    def positions(self) -> np.ndarray:
-        return self.mj_data.site_xpos[self._sites].copy()
-
-    def move_gripper(self, k: int, position: np.ndarray) -> None:
-        i = self._mocap[k]
-        self._gripper_from.setdefault(i, self.mj_data.mocap_pos[i].copy())
-        self.mj_data.mocap_pos[i] = position
-
-    @property
-    def released(self) -> set:
-        """Pin numbers of the sockets that have let go."""
-        return {k for k, (_, ids) in zip(self._socket_pins, self._sockets) if not self.mj_data.eq_active[ids[0]]}
-
-    @property
-    def time(self) -> float:
-        return float(self.mj_data.time)
+    def __len__(self) -> int:
+        return len(self.times)
 
 
 class Simulator:
@@ -128,43 +48,52 @@ class Simulator:
 
     Args:
       scene: the scene.
-      model: ``"springs"``, ``"joints"``, ``"composite"``, ``"flexrod"`` (MuJoCo's native models) or
-        ``"jakobsen"``, ``"pbd"``, ``"xpbd"`` (particle solvers).
+      model: a model of the catalogue (:func:`mjcable.catalog.names`): ``"springs"``, ``"joints"``,
+        ``"composite"``, ``"flexrod"`` (MuJoCo's native models), ``"jakobsen"``, ``"pbd"``, ``"xpbd"`` (particle
+        solvers).
       dt: step in seconds (> 0).
-      **settings: model settings: ``substeps`` and ``self_collision`` for native models (MuJoCo steps at
-        ``dt / substeps``); see :mod:`mjcable.solvers` for the particle solvers.
+      **settings: the model's settings, keyword-only (its settings dataclass, e.g.
+        :class:`mjcable.solvers.settings.XPBDSettings`; :attr:`settings` holds them with the defaults filled in).
+
+    Raises:
+      ValueError: an unknown model, a setting the model does not take, or a value out of range.
 
     Example::
 
         sim = mjcable.Simulator(mjcable.scenes.get("hang"), "flexrod")
         sim.step(1.0)
         sim.positions  # (n_segments + 1, 3), metres
+        same = mjcable.Simulator(sim.scene, sim.model, dt=sim.dt, **dataclasses.asdict(sim.settings))
     """
 
     def __init__(self, scene: Scene, model: str, *, dt: float = 0.002, **settings):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be an mjcable.Scene, got {type(scene).__name__}")
-        check_model(model)
-        self.dt = check_dt(dt)
+        entry = catalog.get(model)
+        self.dt = catalog.check_dt(dt)
+        self.settings = catalog.make_settings(model, **settings)
         self.scene = scene
         self.model = model
-        if model in NATIVE_MODELS:
-            self._backend = _NativeBackend(scene, model, self.dt, settings)
-        else:
-            from mjcable import solvers
+        self.family = entry.family
+        self._backend = entry.backend(scene, entry, self.dt, self.settings)
+        self._start_steps()
 
-            self._backend = solvers.make_backend(scene, model, self.dt, settings)
+    def _start_steps(self) -> None:
         self._steps = 0
         self._pending = 0.0
         self._positions = self._backend.positions()
         self._check(self._positions, None)
 
+    # -- state ----------------------------------------------------------------------------------------------------
+
     @property
     def mj_model(self) -> mujoco.MjModel:
+        """The compiled MuJoCo model: the cable model itself (native) or the proxy (particle solvers)."""
         return self._backend.mj_model
 
     @property
     def mj_data(self) -> mujoco.MjData:
+        """Its data, current after every step (kinematics included)."""
         return self._backend.mj_data
 
     @property
@@ -173,14 +102,83 @@ class Simulator:
         return self._positions.copy()
 
     @property
+    def velocities(self) -> np.ndarray:
+        """``(n_segments + 1, 3)`` particle velocities in m/s, from the model's own state."""
+        return self._backend.velocities()
+
+    @property
+    def particle_masses(self) -> np.ndarray:
+        """``(n_segments + 1,)`` lumped particle masses in kg, point masses added with :meth:`add_point_mass`
+        included (capsule chains: each segment's mass split between its two particles)."""
+        return self._backend.particle_masses()
+
+    @property
+    def pin_forces(self) -> np.ndarray:
+        """``(len(scene.pins), 3)`` force in newtons each pin exerts on the cable at its pinned particle, world frame.
+
+        The pins together carry the whole cable's weight at rest, the pinned particles' own share included; a
+        clamp's force is included (its torque is :attr:`pin_torques`); a released socket's row is zero. Native
+        models report the last constraint solve (the state at the start of the last MuJoCo step).
+        """
+        return self._backend.pin_forces()
+
+    @property
+    def pin_torques(self) -> np.ndarray:
+        """``(len(scene.pins), 3)`` torque in N·m each pin exerts on the cable about its pinned particle (non-zero for
+        clamps only)."""
+        return self._backend.pin_torques()
+
+    @property
+    def gripper_positions(self) -> np.ndarray:
+        """``(len(scene.grippers), 3)`` commanded gripper positions in metres, in ``scene.grippers`` order."""
+        return self._backend.gripper_positions()
+
+    @property
+    def released(self) -> frozenset:
+        """Pin numbers (indices into ``scene.pins``) of the sockets that have let go."""
+        return frozenset(self._backend.released)
+
+    @property
+    def diagnostics(self) -> dict:
+        """Counters of the last step (e.g. ``contacts``) and, for particle solvers, cumulative timings in seconds."""
+        return dict(self._backend.diagnostics())
+
+    @property
     def time(self) -> float:
         """Simulated time in seconds actually reached (a whole number of steps)."""
         return self._steps * self.dt
 
     @property
     def steps(self) -> int:
-        """Number of steps of ``dt`` taken."""
+        """Number of steps of ``dt`` taken since the start (or the last :meth:`reset`)."""
         return self._steps
+
+    def energy(self) -> float:
+        """Kinetic plus gravitational potential energy of the cable's particles in J, ½ Σ mᵢ|vᵢ|² − Σ mᵢ g·xᵢ (lumped
+        masses; a capsule chain's rotational energy of its segments about their own centres is left out)."""
+        m = self.particle_masses
+        v = self.velocities
+        g = np.asarray(self.mj_model.opt.gravity, dtype=np.float64)
+        return float(0.5 * np.sum(m * np.einsum("ij,ij->i", v, v)) - np.sum(m * (self._positions @ g)))
+
+    # -- stepping -------------------------------------------------------------------------------------------------
+
+    def _count(self, seconds: Optional[float]) -> int:
+        """Whole steps in ``seconds`` plus the carried remainder (``None``: exactly one); the rest carries over."""
+        if seconds is None:
+            return 1
+        seconds = _validate.number("seconds", seconds, low=0.0, unit="s")
+        self._pending += seconds
+        count = int(math.floor(self._pending / self.dt + _STEP_EPS))
+        self._pending = max(self._pending - count * self.dt, 0.0)
+        return count
+
+    def _advance(self) -> None:
+        reason = self._backend.step()
+        self._steps += 1
+        previous = self._positions
+        self._positions = self._backend.positions()
+        self._check(self._positions, previous, reason)
 
     def step(self, seconds: Optional[float] = None) -> None:
         """Advance by whole steps of ``dt``; the remainder of ``seconds`` carries over to the next call.
@@ -191,20 +189,43 @@ class Simulator:
         Raises:
           SimulationDivergedError: NaN, runaway state or a MuJoCo warning.
         """
-        if seconds is None:
-            count = 1
-        else:
-            if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 <= seconds < math.inf:
-                raise ValueError(f"seconds must be a finite number >= 0, got {seconds!r}")
-            self._pending += float(seconds)
-            count = int(math.floor(self._pending / self.dt + _STEP_EPS))
-            self._pending = max(self._pending - count * self.dt, 0.0)
-        for _ in range(count):
-            reason = self._backend.step()
-            self._steps += 1
-            previous = self._positions
-            self._positions = self._backend.positions()
-            self._check(self._positions, previous, reason)
+        for _ in range(self._count(seconds)):
+            self._advance()
+
+    def rollout(self, seconds: float, *, every: Optional[int] = None) -> Trajectory:
+        """Advance like :meth:`step` (the same steps and remainder rule, identical results) and record the state.
+
+        Args:
+          seconds: duration in seconds (>= 0).
+          every: record every ``every``-th step (an integer >= 1; ``None``: every step). The last row is always the
+            final state; with no whole step to take, the one row is the current state.
+
+        Returns:
+          A :class:`Trajectory` of ``k`` rows.
+
+        Example::
+
+            traj = sim.rollout(1.0, every=10)   # traj.positions: (50, n_segments + 1, 3) at dt = 0.002
+        """
+        stride = 1 if every is None else _validate.integer("every", every, low=1)
+        count = self._count(seconds)
+        rows = [k for k in range(1, count + 1) if k % stride == 0 or k == count] or [0]
+        shape = (len(rows),) + self._positions.shape
+        times, pos, vel = np.empty(len(rows)), np.empty(shape), np.empty(shape)
+        r = 0
+        for k in range(count + 1):
+            if k > 0:
+                self._advance()
+            if r < len(rows) and rows[r] == k:
+                times[r], pos[r], vel[r] = self.time, self._positions, self._backend.velocities()
+                r += 1
+        return Trajectory(times=times, positions=pos, velocities=vel)
+
+    def reset(self) -> None:
+        """Back to the exact start state: positions, velocities, time, grippers and sockets, bit for bit (point
+        masses added with :meth:`add_point_mass` stay)."""
+        self._backend.reset()
+        self._start_steps()
 
     def _check(self, x: np.ndarray, previous: Optional[np.ndarray], reason: Optional[str] = None) -> None:
         if reason is None and not np.all(np.isfinite(x)):
@@ -218,18 +239,26 @@ class Simulator:
         if reason is not None:
             raise SimulationDivergedError(self.model, self._steps, self.time, reason)
 
-    @property
-    def released(self) -> frozenset:
-        """Pin numbers (indices into ``scene.pins``) of the sockets that have let go."""
-        return frozenset(self._backend.released)
+    # -- actions --------------------------------------------------------------------------------------------------
 
     def move_gripper(self, pin_number: int, position) -> None:
         """Move the gripper of ``scene.pins[pin_number]`` to ``position`` (3,), metres, world frame; it travels
         there linearly over the next step's substeps."""
         grippers = self.scene.grippers
-        if pin_number not in grippers:
+        if isinstance(pin_number, bool) or pin_number not in grippers:
             raise ValueError(f"pin_number must index a gripper pin, one of {grippers}, got {pin_number!r}")
-        pos = np.asarray(position, dtype=np.float64)
-        if pos.shape != (3,) or not np.all(np.isfinite(pos)):
-            raise ValueError(f"position must be 3 finite numbers in metres, got {position!r}")
-        self._backend.move_gripper(pin_number, pos)
+        pos = np.asarray(_validate.vec3("position", position, unit="metres"))
+        self._backend.move_gripper(int(pin_number), pos)
+
+    def add_point_mass(self, index: int, mass: float) -> None:
+        """Add a point mass of ``mass`` kg at particle ``index`` (negative counts from the end), e.g. a load on the
+        cable's end. It stays through :meth:`reset`.
+
+        Native models add it to the body holding the particle (mass, centre of mass and inertia as for a point
+        mass at the particle); particle solvers to the particle's lumped mass. A held particle stays held: its mass
+        then enters its pin's force.
+        """
+        n = self.scene.cable.n_particles
+        index = _validate.integer("index", index, low=-n, high=n - 1) % n
+        mass = _validate.number("mass", mass, low=0.0, low_open=True, unit="kg")
+        self._backend.add_point_mass(index, mass)

@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 import mjcable
-from mjcable.build import proxy
+from mjcable.mjcf import proxy
 from mjcable.solvers import kernels, query_kernels
 
 GRAVITY_Z = -9.81

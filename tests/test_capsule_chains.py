@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable.build import START_KEY, world
+from mjcable.mjcf import world
+from mjcable.mjcf.world import START_KEY
 from mjcable.scene import GRAVITY, CableSpec, Pin, Scene
 from mjcable.scenes import HANG_HEIGHT, HANG_LENGTH, HANG_SPAN, TABLE_TOP
 
@@ -263,7 +264,7 @@ def test_free_fall(model):
 
 
 def test_composite_plugin_moduli():
-    from mjcable.build import composite
+    from mjcable.mjcf import composite
 
     scene = mjcable.scenes.get("hang", young=3e6)
     spec = mjcable.build(scene, "composite")

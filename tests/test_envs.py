@@ -1,6 +1,6 @@
 """Tests of mjcable.envs: dm_env conformance, random-policy robustness, seeding, errors, workspace and task physics.
 
-Models whose module does not exist yet (``mjcable.build.<model>`` for native models, ``mjcable.solvers`` /
+Models whose module does not exist yet (``mjcable.mjcf.<model>`` for native models, ``mjcable.solvers`` /
 ``mjcable.solvers.<model>`` for the particle solvers) are skipped; nothing else is.
 """
 
@@ -15,7 +15,7 @@ from dm_env import test_utils
 from scipy import optimize
 
 from mjcable import envs
-from mjcable.build import MODELS
+MODELS = mjcable.MODELS
 from mjcable.envs import workspace as ws
 from mjcable.scene import Box, Capsule, Cylinder, Floor, Sphere
 

@@ -8,7 +8,7 @@ import pytest
 
 import mjcable
 from mjcable import export
-from mjcable.build import START_KEY
+from mjcable.mjcf.world import START_KEY
 
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 UNAVAILABLE = (NotImplementedError, ImportError)

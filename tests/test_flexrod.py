@@ -9,7 +9,8 @@ import pytest
 
 import mjcable
 from mjcable import CableSpec, Floor, Pin, Scene
-from mjcable.build import START_KEY, flexrod
+from mjcable.mjcf import flexrod
+from mjcable.mjcf.world import START_KEY
 from mjcable.scene import GRAVITY
 from mjcable.scenes import HANG_HEIGHT, HANG_LENGTH, HANG_SPAN, TABLE_TOP
 

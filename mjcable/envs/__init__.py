@@ -32,7 +32,7 @@ from typing import Optional
 from dm_control.rl import control
 
 from mjcable import render
-from mjcable.build import MODELS
+from mjcable import catalog
 from mjcable.envs import base, drape, reach_sag, unplug  # noqa: F401  (importing registers the tasks)
 from mjcable.envs.base import (DEFAULT_CONTROL_TIMESTEP, MAX_GRIPPER_SPEED, MODEL_DEFAULTS, SUITE, CablePhysics,
                                CableTask)
@@ -89,8 +89,7 @@ def load(task: str, model: str = "flexrod", *, random=None, time_limit: Optional
     """
     if not isinstance(task, str) or task not in SUITE:
         raise ValueError(f"task must be one of {names()}, got {task!r}")
-    if not isinstance(model, str) or model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    catalog.check_model(model)
     return SUITE[task](model, random=random, time_limit=time_limit, control_timestep=control_timestep, **settings)
 
 

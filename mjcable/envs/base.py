@@ -28,7 +28,7 @@ from dm_control.utils import containers
 from dm_env import specs
 
 from mjcable import scenes
-from mjcable.build import check_dt, check_model
+from mjcable.catalog import check_dt, check_model
 from mjcable.envs.workspace import Workspace
 from mjcable.scene import Scene
 from mjcable.simulator import Simulator

@@ -28,7 +28,7 @@ class ObstacleContacts:
 
     Args:
       scene: the scene.
-      model, data: the compiled proxy (``mjcable.build.proxy``) and its data, kinematics current.
+      model, data: the compiled proxy (``mjcable.mjcf.proxy``) and its data, kinematics current.
       segment_geoms: ``(n_segments,)`` geom ids of the proxy capsules.
     """
 

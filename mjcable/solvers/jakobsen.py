@@ -3,7 +3,7 @@
 Verlet integration x′ = x + e^{−c h}(x − x*) + g h² (thesis Eq. 2.7 with Jakobsen's damping, as a rate c in 1/s
 that multiplies the velocity only, never gravity), started from the exact previous position x* = x₀ + ½ g h² so
 that free fall is exact. Then ``iterations`` relaxation sweeps over the sticks with mass-weighted corrections
-(Jakobsen's ``invmass`` form), each scaled by ``stiffness`` k ∈ [0, 1] as is (no iteration correction: stiffness
+(Jakobsen's ``invmass`` form), each scaled by ``stretch_factor`` k ∈ [0, 1] as is (no iteration correction: stiffness
 grows with iterations and with smaller steps, the thesis's accuracy- and timescale-stiffness effects).
 ``sqrt_approx`` replaces the square root by its first-order Taylor expansion at the rest length.
 
@@ -16,15 +16,15 @@ from __future__ import annotations
 
 from mjcable.scene import Scene
 from mjcable.solvers.pbd import bending_rules
-from mjcable.solvers.settings import SolverSettings
+from mjcable.solvers.settings import ParticleSettings
 from mjcable.solvers.state import Rules
 
 __all__ = ["rules"]
 
 
-def rules(scene: Scene, settings: SolverSettings, h: float) -> Rules:
+def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     """Jakobsen's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
     bending, k_bend = bending_rules("jakobsen", scene, settings, h)
     return Rules(verlet_start=True, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0,
-                 k_stretch=float(settings.stiffness), k_bend=k_bend, k_clamp=1.0, bending=bending,
+                 k_stretch=float(settings.stretch_factor), k_bend=k_bend, k_clamp=1.0, bending=bending,
                  sqrt_approx=settings.sqrt_approx)

@@ -16,7 +16,7 @@ import numpy as np
 from mjcable.scene import GRAVITY, Scene
 from mjcable.solvers import kernels
 from mjcable.solvers.kernels import FP, IP
-from mjcable.solvers.settings import SolverSettings
+from mjcable.solvers.settings import ParticleSettings
 
 __all__ = ["Rules", "new_chain", "empty_contacts", "ORDER_CODES", "BENDING_CODES"]
 
@@ -97,7 +97,7 @@ def _direct_rows(n_particles: int, bending: str, clamp_pq: np.ndarray) -> dict:
                 bandwidth=bandwidth)
 
 
-def new_chain(scene: Scene, rules: Rules, settings: SolverSettings, dt: float) -> kernels.Chain:
+def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> kernels.Chain:
     """The solver state of ``scene`` at rest in its start shape.
 
     Args:

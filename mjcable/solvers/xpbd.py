@@ -18,13 +18,13 @@ iterations converge (or in one iteration with ``order="direct"``):
 from __future__ import annotations
 
 from mjcable.scene import Scene
-from mjcable.solvers.settings import SolverSettings, bending_kind
+from mjcable.solvers.settings import ParticleSettings, bending_kind
 from mjcable.solvers.state import Rules
 
 __all__ = ["rules"]
 
 
-def rules(scene: Scene, settings: SolverSettings, h: float) -> Rules:
+def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     """XPBD's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
     del h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
     cable = scene.cable

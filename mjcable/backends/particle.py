@@ -1,4 +1,5 @@
-"""The particle backend behind :class:`mjcable.Simulator` for ``jakobsen``, ``pbd`` and ``xpbd``.
+"""The particle backend behind :class:`mjcable.Simulator` for ``jakobsen``, ``pbd`` and ``xpbd`` (and any particle
+model the catalogue registers with its own ``rules``).
 
 One :meth:`ParticleBackend.step` advances exactly one ``dt``: query contacts (once, with a margin), run
 ``substeps`` substeps of ``iterations`` iterations in one numba call, then pose the proxy capsules from the
@@ -14,17 +15,21 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from mjcable.build import proxy, world
-from mjcable.scene import GRAVITY, Scene
-from mjcable.solvers import jakobsen, kernels, pbd, query_kernels, xpbd
+from mjcable.mjcf import proxy, world
+from mjcable.scene import Scene
+from mjcable.solvers import kernels, query_kernels
 from mjcable.solvers.contacts import ObstacleContacts
-from mjcable.solvers.settings import solver_settings
+from mjcable.solvers.settings import ParticleSettings
 from mjcable.solvers.state import empty_contacts, new_chain
+from mjcable.solvers.user_constraints import iteration_factor
 
-__all__ = ["ParticleBackend", "RULES"]
-
-RULES = {"jakobsen": jakobsen.rules, "pbd": pbd.rules, "xpbd": xpbd.rules}
+__all__ = ["ParticleBackend", "proxy_builder"]
 _SELF_CONTACT_CAPACITY = 8  # initial self-contact buffer per segment (grown on demand)
+
+
+def proxy_builder(scene: Scene, settings: ParticleSettings, dt: float) -> mujoco.MjSpec:
+    """The catalogue's builder for a particle model: the proxy spec (:func:`mjcable.mjcf.proxy.build`)."""
+    return proxy.build(scene, dt=dt, contact_margin=settings.contact_margin)
 
 
 class ParticleBackend:
@@ -32,31 +37,27 @@ class ParticleBackend:
 
     Args:
       scene: the scene.
-      model: ``"jakobsen"``, ``"pbd"`` or ``"xpbd"``.
+      entry: the model's catalogue entry; its ``rules(scene, settings, h)`` turns the physical cable into the
+        kernels' parameters (:class:`~mjcable.solvers.state.Rules`) and its ``build`` makes the proxy spec.
       dt: step in seconds (> 0, validated by the Simulator).
-      settings: the model's settings (:class:`~mjcable.solvers.settings.SolverSettings`).
+      settings: the model's validated settings (a :class:`~mjcable.solvers.settings.ParticleSettings`).
 
     Attributes:
       mj_model, mj_data: the compiled proxy; its capsules follow the cable after every step.
       state: the solver arrays (:class:`~mjcable.solvers.kernels.Chain`).
       released: pin numbers (indices into ``scene.pins``) of sockets that have let go.
-      last_contact_count: obstacle contacts found by the last step's query (0 when skipped).
-      last_self_contact_count: self contacts found by the last step.
-      queries: number of steps that ran MuJoCo's collision query.
-      timing: cumulative seconds spent in ``"query"`` (contacts), ``"solve"`` (the substeps) and ``"sync"``
-        (posing the proxy).
     """
 
-    def __init__(self, scene: Scene, model: str, dt: float, settings: dict):
-        self.settings = solver_settings(model, **settings)
-        self.scene, self.model, self.dt = scene, model, dt
-        s = self.settings
+    def __init__(self, scene: Scene, entry, dt: float, settings: ParticleSettings):
+        self.settings = s = settings
+        self.scene, self.name, self.dt = scene, entry.name, dt
         self.h = dt / s.substeps
-        self.rules = RULES[model](scene, s, self.h)
+        self.rules = entry.rules(scene, s, self.h)
         n_particles = scene.cable.n_particles
-        self._user = [(c, c.resolved(n_particles)) for c in s.constraints]
+        self._user = [(c, c.resolved(n_particles)) for c in getattr(s, "constraints", ())]
         self.state = new_chain(scene, self.rules, s, dt)
-        self.mj_model = proxy.build(scene, dt=dt, **settings).compile()
+        self._start = {name: a.copy() for name, a in self.state._asdict().items()}  # reset() copies these back
+        self.mj_model = entry.build(scene, s, dt).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
         n = scene.cable.n_segments
@@ -68,9 +69,10 @@ class ParticleBackend:
                                         for i in range(n)])
         self._sites = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i))
                                 for i in range(n_particles)])
-        self._gripper_mocap = {k: int(m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
-                                                                       world.gripper_body(k))])
-                               for k in scene.grippers}
+        self._gripper_mocap = np.array([int(m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
+                                                                             world.gripper_body(k))])
+                                        for k in scene.grippers], dtype=np.int64)
+        self._mocap_of_pin = dict(zip(scene.grippers, self._gripper_mocap.tolist()))
         # views into mj_data, taken once (MjData's buffers do not move): the proxy's poses are written in place
         self._pose_pos = self.mj_data.mocap_pos[:n]
         self._pose_quat = self.mj_data.mocap_quat[:n]
@@ -79,14 +81,22 @@ class ParticleBackend:
         self._site_pos = self.mj_data.site_xpos[first:first + n_particles] if contiguous else None
         mujoco.mj_kinematics(m, self.mj_data)
         self._obstacles = ObstacleContacts(scene, m, self.mj_data, self._segment_geoms) if scene.obstacles else None
-        self.contacts = empty_contacts()
         self._self_pair = np.zeros((_SELF_CONTACT_CAPACITY * n, 2), dtype=np.int64)
         self._self_geo = np.zeros((_SELF_CONTACT_CAPACITY * n, 5))
+        self._gravity = float(np.linalg.norm(self.mj_model.opt.gravity))  # m/s²
+        self.timing = {"query": 0.0, "solve": 0.0, "sync": 0.0}
+        self.reset()
+
+    def reset(self) -> None:
+        """Copy the start state back into the solver's arrays (in place), and the proxy back to its start pose."""
+        for name, a in self.state._asdict().items():
+            np.copyto(a, self._start[name])
+        mujoco.mj_resetData(self.mj_model, self.mj_data)
+        self.contacts = empty_contacts()
         self.released = set()
         self.last_contact_count = 0
         self.last_self_contact_count = 0
         self.queries = 0
-        self.timing = {"query": 0.0, "solve": 0.0, "sync": 0.0}
         self._sync()
 
     # -- the step -------------------------------------------------------------------------------------------------
@@ -120,7 +130,7 @@ class ParticleBackend:
         contacts = self.contacts
         speed = math.sqrt(float(np.max(np.einsum("ij,ij->i", S.v, S.v))))
         # the distance a particle can travel in one step, plus the configured margin
-        margin = s.contact_margin + speed * self.dt + 0.5 * float(np.linalg.norm(GRAVITY)) * self.dt**2
+        margin = s.contact_margin + speed * self.dt + 0.5 * self._gravity * self.dt**2
         if not math.isfinite(margin):  # a diverged state: leave it to the divergence check
             margin = s.contact_margin
         self.last_contact_count = 0
@@ -156,7 +166,7 @@ class ParticleBackend:
             for _ in range(s.iterations):
                 kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_ITERATE, sub)
                 for constraint, idx in self._user:
-                    constraint.project(S.x, S.w, idx, pbd.iteration_stiffness(constraint.stiffness, s.iterations))
+                    constraint.project(S.x, S.w, idx, iteration_factor(constraint.factor, s.iterations))
             finite, count = kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_END, sub)
             released += count
         return finite, released
@@ -176,37 +186,56 @@ class ParticleBackend:
     # -- the Simulator's interface --------------------------------------------------------------------------------
 
     def positions(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` particle positions in metres (a copy)."""
         return self.state.x.copy()
+
+    def velocities(self) -> np.ndarray:
+        return self.state.v.copy()
+
+    def particle_masses(self) -> np.ndarray:
+        return self.state.mass.copy()
+
+    def gripper_positions(self) -> np.ndarray:
+        return self.mj_data.mocap_pos[self._gripper_mocap].copy()
 
     def move_gripper(self, k: int, position: np.ndarray) -> None:
         """Move the gripper of ``scene.pins[k]`` to ``position`` (3,) m: its particle reaches it linearly over the
         next step's substeps."""
         self.state.pin_to[k] = position
-        self.mj_data.mocap_pos[self._gripper_mocap[k]] = position
+        self.mj_data.mocap_pos[self._mocap_of_pin[k]] = position
 
-    @property
-    def time(self) -> float:
-        return float(self.mj_data.time)
-
-    def set_particle_mass(self, i: int, mass: float) -> None:
-        """Give particle ``i`` the lumped ``mass`` in kg (> 0), e.g. to hang a load on the cable's end; a held
-        particle stays held (its mass then only enters its pin's force)."""
-        if isinstance(mass, bool) or not isinstance(mass, (int, float)) or not 0.0 < mass < math.inf:
-            raise ValueError(f"mass must be a finite number > 0 (kg), got {mass!r}")
-        n = self.scene.cable.n_particles
-        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -n <= i < n:
-            raise ValueError(f"i must be a particle index in [{-n}, {n - 1}], got {i!r}")
+    def add_point_mass(self, index: int, mass: float) -> None:
+        """Add ``mass`` kg to particle ``index``'s lumped mass (in the start state too, so :meth:`reset` keeps it);
+        a held particle stays held (its mass then enters its pin's force)."""
         S = self.state
-        S.mass[i] = mass
-        if S.w[i] > 0.0:
-            S.w[i] = 1.0 / mass
-
-    # -- diagnostics ----------------------------------------------------------------------------------------------
+        for arrays in (S, self._start):
+            m, w = (arrays.mass, arrays.w) if arrays is S else (arrays["mass"], arrays["w"])
+            m[index] += mass
+            if w[index] > 0.0:
+                w[index] = 1.0 / m[index]
 
     def pin_forces(self) -> np.ndarray:
-        """``(n_pins, 3)`` force in newtons each pin exerted on its particle in the last substep (XPBD's λ / h²
-        summed over the constraints on the held particle, plus its weight); zero rows for released sockets."""
+        """Each pin's force on its particle in the last substep (XPBD's force estimate ∇Cᵀλ / h² over the
+        constraints on the held particle, plus its weight: :func:`mjcable.solvers.kernels.end_substep`); zero rows
+        for released sockets."""
         f = self.state.pin_force.copy()
         f[~self.state.pin_active] = 0.0
         return f
+
+    def pin_torques(self) -> np.ndarray:
+        """A clamp's torque about its particle p: (x_q − x_p) × f_q, f_q = Σₘ ∇_q Cₘ λₘ / h² the clamp's force on
+        the neighbour q (:func:`mjcable.solvers.kernels.clamp_sweep`: ∇_q Cₘ = (2 / l₀²) dₘ)."""
+        S = self.state
+        out = np.zeros((len(self.scene.pins), 3))
+        scale = 2.0 / self.scene.cable.segment_length**2
+        for kc, (p, q) in enumerate(S.clamp_pq):
+            k = int(S.clamp_pin[kc])
+            if S.pin_active[k]:
+                f = scale * (S.lam_c[kc] @ S.clamp_dir[kc]) / self.h**2
+                out[k] = np.cross(S.x[q] - S.x[p], f)
+        return out
+
+    def diagnostics(self) -> dict:
+        """``contacts`` and ``self_contacts`` found by the last step, ``queries`` (steps that ran MuJoCo's collision
+        query) and cumulative seconds in ``query_s``, ``solve_s`` and ``sync_s``."""
+        return {"contacts": self.last_contact_count, "self_contacts": self.last_self_contact_count,
+                "queries": self.queries, **{f"{k}_s": v for k, v in self.timing.items()}}

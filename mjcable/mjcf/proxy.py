@@ -15,7 +15,7 @@ with the cable in the air. The solvers skip the query altogether while the cable
 obstacle's, so the query runs only near contact, where pairs are faster: pairs it is.
 
 Gripper pins get their mocap body ``gripper{k}`` (and world/socket pins their anchor site) from
-:func:`mjcable.build.world.add_anchor`, as in the native models.
+:func:`mjcable.mjcf.world.add_anchor`, as in the native models.
 """
 
 from __future__ import annotations
@@ -23,11 +23,12 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mjcable.build import world
+from mjcable.mjcf import world
 from mjcable.scene import Scene
 
-__all__ = ["build", "segment_name", "PROXY_KINDS"]
+__all__ = ["build", "segment_name", "PROXY_KINDS", "DEFAULT_MARGIN"]
 
+DEFAULT_MARGIN = 0.005  # m, the pairs' margin before the solver first sets it
 PROXY_KINDS = ("pairs", "free")  # "free" exists for the measurement above; the solvers use "pairs"
 
 
@@ -36,17 +37,15 @@ def segment_name(i: int) -> str:
     return f"segment{i}"
 
 
-def build(scene: Scene, *, dt: float, proxy: str = "pairs", **settings) -> mujoco.MjSpec:
+def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, proxy: str = "pairs") -> mujoco.MjSpec:
     """The proxy spec of ``scene`` for the particle solvers.
 
     Args:
       scene: the scene.
       dt: the simulator's step in seconds (MuJoCo's timestep; MuJoCo never steps the proxy).
+      contact_margin: the pairs' initial margin in metres (the solver sets the margin every step).
       proxy: ``"pairs"`` (mocap capsules with explicit pairs, used by the solvers) or ``"free"`` (free-joint
         capsules found by MuJoCo's broadphase; for measurements).
-      **settings: the particle solvers' settings (:class:`mjcable.solvers.SolverSettings`), validated here against
-        every particle model's settings; which settings apply to which model is checked by the solver. Only
-        ``contact_margin`` shapes the spec (the pairs' initial margin; the solver sets the margin every step).
 
     Returns:
       An uncompiled ``mujoco.MjSpec``.
@@ -56,15 +55,8 @@ def build(scene: Scene, *, dt: float, proxy: str = "pairs", **settings) -> mujoc
         spec = mjcable.build(mjcable.scenes.get("table"), "xpbd")
         model = spec.compile()
     """
-    from mjcable.solvers.settings import MODEL_SETTINGS, SolverSettings  # late: solvers import mjcable.build
-
-    allowed = sorted(set().union(*MODEL_SETTINGS.values()))
-    unknown = sorted(set(settings) - set(allowed))
-    if unknown:
-        raise ValueError(f"unknown setting(s) {unknown} for the particle models; allowed: {allowed}")
     if proxy not in PROXY_KINDS:
         raise ValueError(f"proxy must be one of {PROXY_KINDS}, got {proxy!r}")
-    s = SolverSettings(**settings)
 
     spec = world.new_spec(scene, timestep=dt)
     cable = scene.cable
@@ -79,14 +71,14 @@ def build(scene: Scene, *, dt: float, proxy: str = "pairs", **settings) -> mujoc
         if proxy == "free":
             body.add_freejoint()
         body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[cable.radius, half, 0.0],
-                      margin=s.contact_margin, **geom)
+                      margin=contact_margin, **geom)
         body.add_site(name=world.particle_site(i), pos=[0.0, 0.0, -half])
         if i == n - 1:
             body.add_site(name=world.particle_site(n), pos=[0.0, 0.0, half])
     if proxy == "pairs":
         for k in range(len(scene.obstacles)):
             for i in range(n):
-                spec.add_pair(geomname1=f"obstacle{k}", geomname2=segment_name(i), condim=3, margin=s.contact_margin)
+                spec.add_pair(geomname1=f"obstacle{k}", geomname2=segment_name(i), condim=3, margin=contact_margin)
     for k in range(len(scene.pins)):
         world.add_anchor(spec, scene, k)
     return spec

@@ -26,7 +26,7 @@ import warnings
 import mujoco
 import numpy as np
 
-from mjcable.build import world
+from mjcable.mjcf import world
 from mjcable.scene import Scene
 
 __all__ = ["build", "spring_stiffness", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE"]

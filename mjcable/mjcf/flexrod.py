@@ -27,7 +27,7 @@ Mapping from the physical cable (MuJoCo 3.17; the numbers below were measured on
   ``∫ E·I κ²/2 ds`` with κ = θ / l₀, so ``young = cable.young`` and ``radius = cable.radius`` give
   ``E·I = cable.bending_stiffness`` exactly. The rest shape is always straight (the compiler rejects a bent 1D flex
   with young > 0): a stiff cable compiles straight along ``particles[1] - particles[0]`` from particle 0 and the
-  keyframe :data:`~mjcable.build.START_KEY` poses the start shape (qpos = each vertex's displacement from its
+  keyframe :data:`~mjcable.mjcf.START_KEY` poses the start shape (qpos = each vertex's displacement from its
   straight position). A limp cable (young = 0) compiles in its start shape.
 * **the stability rules**: MuJoCo integrates 1D flex bending and edge springs explicitly, even with
   ``implicitfast``. Gershgorin's bound on M⁻¹K gives ω²_max ≤ (4 k_s + 16 E·I / l₀³) / mᵢ and semi-implicit Euler
@@ -42,12 +42,12 @@ Mapping from the physical cable (MuJoCo 3.17; the numbers below were measured on
   refuses joint damping on a bare flex vertex body (three slide joints and nothing else), so each vertex body also
   carries a contact-free marker sphere; it changes nothing else (trajectories are identical to the bit).
 * contacts: the flex collides as capsules of the cable radius around its edges, with the cable's μ, condim,
-  contype and conaffinity from :func:`~mjcable.build.world.cable_geom`; self-collision (``selfcollide``) only when
+  contype and conaffinity from :func:`~mjcable.mjcf.world.cable_geom`; self-collision (``selfcollide``) only when
   asked (MuJoCo never collides elements that share a vertex).
-* pins: site-to-site ``connect`` equalities (:func:`~mjcable.build.world.add_connect`) ``pin{k}`` from the pinned
+* pins: site-to-site ``connect`` equalities (:func:`~mjcable.mjcf.world.add_connect`) ``pin{k}`` from the pinned
   particle's site to the anchor site ``anchor{k}``; a clamp also pins the neighbour particle to ``anchor{k}_clamp``
   (equality ``pin{k}_clamp``). The anchor is the
-  gripper's mocap body (:func:`~mjcable.build.world.add_anchor`) or, for world and socket pins, a world site in a limp
+  gripper's mocap body (:func:`~mjcable.mjcf.world.add_anchor`) or, for world and socket pins, a world site in a limp
   cable. A stiff cable compiles straight, where fixed anchors would sit far from their particles and yank the cable
   (a fold of the explicit rod then diverges); its world and socket anchors are therefore mocap bodies
   ``anchor{k}_body`` that nothing moves, at the straight particle in the compiled pose and posed by the keyframe at
@@ -63,7 +63,8 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mjcable.build import START_KEY, world
+from mjcable.mjcf import world
+from mjcable.mjcf.world import START_KEY
 from mjcable.scene import GRAVITY, Scene
 
 __all__ = [

@@ -1,7 +1,7 @@
 """The rigid world every cable model shares: options, obstacles, lights, camera, pin anchors.
 
 Native models and the particle solvers' proxy all start from :func:`new_spec`, so obstacles, lights and cameras are
-identical and videos compare like with like. Naming conventions used across ``mjcable.build``:
+identical and videos compare like with like. Naming conventions used across :mod:`mjcable.mjcf`:
 
 * site ``particle{i}``: centreline particle ``i`` (every model has one per particle; ``Simulator.positions`` reads
   them in one vectorised gather);
@@ -33,11 +33,13 @@ __all__ = [
     "CABLE_CONTYPE",
     "OBSTACLE_CONTYPE",
     "CAMERA",
+    "START_KEY",
 ]
 
 CABLE_CONTYPE = 2  # cable geoms collide with obstacles (conaffinity 1), not with each other unless asked
 OBSTACLE_CONTYPE = 1
 CAMERA = "overview"
+START_KEY = "start"  # keyframe holding the scene's start pose where a model compiles in another (straight) pose
 _TORSION_ROLL_FRICTION = (0.005, 0.0001)
 _FLOOR_HALF_SIZE = 5.0  # m, rendered extent of a Floor plane
 _CAMERA_FOVY = 45.0  # degrees

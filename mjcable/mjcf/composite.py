@@ -6,7 +6,7 @@ linked by ball joints ``cableJ_1`` … ``cableJ_last``, body ``i``'s frame at th
 axis along the segment (frames transported without twist), capsule geoms ``cableG{i}``, sites ``cableS_first`` /
 ``cableS_last``. MuJoCo 3.17's ``initial`` sets the root joint ``cableJ_first`` (``"free"``: a free joint,
 ``"ball"``, ``"none"``: welded to its parent); we ask for ``"none"`` and add the root's joints as ``joints`` does
-(:func:`mjcable.build.joints.add_root_joints`), so that its rotation carries the same armature. Everything else is
+(:func:`mjcable.mjcf.joints.add_root_joints`), so that its rotation carries the same armature. Everything else is
 added with the MjSpec API after parsing: the ``particle{i}`` sites (at the origin of the body that starts at
 particle ``i``; the tree's last particle at the end of the last capsule), exact frames (the composite computes its
 own from single-precision vertices, 1e-6 m off), contact attributes, armature, pins, and the neighbour excludes
@@ -33,7 +33,7 @@ Mapping from the physical cable:
 * friction and contacts: ``world.cable_geom`` on every capsule; neighbouring capsules never collide.
 
 Pins as in ``joints``: the chain is generated from the pinned end the tree is rooted at
-(:func:`mjcable.build.joints.tree_order`: particle 0, or particle n when only the far end has a world or gripper
+(:func:`mjcable.mjcf.joints.tree_order`: particle 0, or particle n when only the far end has a world or gripper
 pin, so ``cableB_first`` then sits at particle n); the root pin through the root's joints (none: free; world pin:
 ball, clamped: none; gripper: ball or none, the generated chain re-parented under the mocap body ``gripper{k}``),
 every other pin (sockets always) with site-to-site connect equalities ``pin{k}`` / ``pin{k}_clamp``. A moving
@@ -45,7 +45,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mjcable.build import joints, world
+from mjcable.mjcf import joints, world
 from mjcable.scene import Scene
 
 __all__ = ["build", "body_name", "plugin_moduli", "POISSON", "PREFIX", "PLUGIN"]

@@ -1,0 +1,264 @@
+"""The native backend: MuJoCo's own cable models (``springs``, ``joints``, ``composite``, ``flexrod``), ``mj_step``
+``substeps`` times per ``dt``.
+
+Read-outs, all from MuJoCo's own state:
+
+* positions: the sites ``particle{i}`` (kinematics recomputed after every step, ``mj_flex`` for flex models);
+* velocities: each site's linear velocity from the bodies' com-based velocities ``cvel``,
+  v = v_c + ω × (p − c), c the subtree centre of mass ``cvel`` refers to;
+* pin forces: a pin held by connect equalities (``pin{k}``, ``pin{k}_clamp``) exerts the equalities' constraint
+  forces on the particle sites (``efc_force`` rows, world frame, from the last step's constraint solve); a pin the
+  kinematic tree realises (the root of a capsule chain) exerts the force its parent transmits to the root body
+  (``cfrc_int`` after ``mj_rnePostConstraint``). Either way the pinned particle's own weight is included;
+* pin torques: a clamp held by two connects exerts (x_j − x_i) × f_clamp about its particle; a welded root the
+  transmitted torque moved to the particle.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Optional
+
+import mujoco
+import numpy as np
+
+from mjcable.mjcf import world
+from mjcable.mjcf.settings import NativeSettings
+from mjcable.scene import Scene
+
+__all__ = ["NativeBackend", "spec_builder", "DIVERGENCE_WARNINGS"]
+
+DIVERGENCE_WARNINGS = {  # index into data.warning -> what it means
+    int(mujoco.mjtWarning.mjWARN_BADQACC): "MuJoCo reset the state after a bad acceleration (mjWARN_BADQACC)",
+    int(mujoco.mjtWarning.mjWARN_BADQVEL): "bad velocity (mjWARN_BADQVEL)",
+    int(mujoco.mjtWarning.mjWARN_BADQPOS): "bad position (mjWARN_BADQPOS)",
+    int(mujoco.mjtWarning.mjWARN_CONTACTFULL): "contact buffer full (mjWARN_CONTACTFULL)",
+    int(mujoco.mjtWarning.mjWARN_CNSTRFULL): "constraint buffer full (mjWARN_CNSTRFULL)",
+}
+_CONNECT_ROWS = 3  # a connect equality constrains three position components
+
+
+def spec_builder(generate: Callable[..., mujoco.MjSpec]) -> Callable[[Scene, NativeSettings, float], mujoco.MjSpec]:
+    """The catalogue's builder ``(scene, settings, dt) -> MjSpec`` for a native generator
+    ``generate(scene, *, timestep, self_collision)``: MuJoCo steps at ``dt / substeps``, and a scene where nothing
+    can touch skips MuJoCo's collision pipeline altogether."""
+
+    def build(scene: Scene, settings: NativeSettings, dt: float) -> mujoco.MjSpec:
+        spec = generate(scene, timestep=dt / settings.substeps, self_collision=settings.self_collision)
+        if not scene.obstacles and not settings.self_collision:
+            spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+        return spec
+
+    build.__doc__ = f"MjSpec of a scene for {generate.__module__}, MuJoCo stepping at dt / substeps."
+    return build
+
+
+def _name2id(m: mujoco.MjModel, kind, name: str) -> int:
+    return mujoco.mj_name2id(m, kind, name)
+
+
+class NativeBackend:
+    """MuJoCo's own cable models: ``mj_step`` ``settings.substeps`` times per ``dt``.
+
+    Args:
+      scene: the scene.
+      entry: the model's catalogue entry (its ``build`` makes the spec).
+      dt: step in seconds (validated by the Simulator).
+      settings: the model's settings dataclass (validated).
+    """
+
+    def __init__(self, scene: Scene, entry, dt: float, settings: NativeSettings):
+        self.scene, self.name, self.dt, self.settings = scene, entry.name, dt, settings
+        self.substeps = settings.substeps
+        self.mj_model = entry.build(scene, settings, dt).compile()
+        self.mj_data = mujoco.MjData(self.mj_model)
+        m = self.mj_model
+        n = scene.cable.n_particles
+        self._key = _name2id(m, mujoco.mjtObj.mjOBJ_KEY, world.START_KEY)
+        self._sites = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i)) for i in range(n)])
+        if np.any(self._sites < 0):
+            raise RuntimeError(f"model {self.name!r} lacks particle sites")  # pragma: no cover - a generator bug
+        self._site_body = m.site_bodyid[self._sites]
+        self._gripper_mocap = np.array([int(m.body_mocapid[_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
+                                                                     world.gripper_body(k))])
+                                        for k in scene.grippers], dtype=np.int64)
+        self._mocap_of_pin = dict(zip(scene.grippers, self._gripper_mocap.tolist()))
+        # pin k -> (equality ids of pin{k} and pin{k}_clamp, -1 where absent)
+        self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c))
+                                  for c in (False, True)] for k in range(len(scene.pins))],
+                                dtype=np.int64).reshape(-1, 2)
+        self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]
+        self._gripper_from = {}  # mocap id -> its position at the start of the next step (grippers moved since)
+        self._added = np.zeros(n)  # kg of point masses added per particle
+        self._steps_since_reset = 0
+        self.reset()
+
+    # -- the step -------------------------------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        m, d = self.mj_model, self.mj_data
+        if self._key >= 0:
+            mujoco.mj_resetDataKeyframe(m, d, self._key)
+        else:
+            mujoco.mj_resetData(m, d)
+        mujoco.mj_forward(m, d)
+        self._gripper_from = {}
+        self._refresh()
+
+    def step(self) -> Optional[str]:
+        m, d = self.mj_model, self.mj_data
+        if self._gripper_from and self.substeps > 1:
+            # A moved gripper travels linearly over the substeps, as the particle backend's pins do: a jump at the
+            # first substep would inject energy into the stiff links holding its particle.
+            moved = list(self._gripper_from)
+            start = np.array([self._gripper_from[i] for i in moved])
+            target = d.mocap_pos[moved].copy()
+            for s in range(1, self.substeps + 1):
+                d.mocap_pos[moved] = start + (target - start) * (s / self.substeps)
+                mujoco.mj_step(m, d)
+                self._release_sockets()
+        elif self._sockets:
+            for _ in range(self.substeps):
+                mujoco.mj_step(m, d)
+                self._release_sockets()
+        else:
+            mujoco.mj_step(m, d, nstep=self.substeps)
+        self._gripper_from = {}
+        counts = d.warning.number  # a writable view; MuJoCo's own reset zeroes it, so read and clear per dt
+        bad = [w for w in DIVERGENCE_WARNINGS if counts[w] > 0]
+        if bad:
+            counts[bad] = 0
+            return "; ".join(DIVERGENCE_WARNINGS[w] for w in bad)
+        self._refresh()
+        return None
+
+    def _refresh(self) -> None:
+        m, d = self.mj_model, self.mj_data
+        mujoco.mj_kinematics(m, d)  # xpos/site_xpos describe the previous state after mj_step
+        if m.nflex:
+            mujoco.mj_flex(m, d)  # flexvert_xpos too (rendering draws the flex from it)
+
+    def _equality_force(self, eq: int) -> np.ndarray:
+        """The (3,) force in N that connect equality ``eq`` exerted on its first site in the last constraint solve."""
+        d = self.mj_data
+        nefc = d.nefc
+        rows = np.flatnonzero((d.efc_type[:nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (d.efc_id[:nefc] == eq))
+        if len(rows) != _CONNECT_ROWS:  # inactive (a released socket) or not in the last solve
+            return np.zeros(3)
+        return d.efc_force[rows].copy()
+
+    def _release_sockets(self) -> None:
+        d = self.mj_data
+        for k in self._sockets:
+            ids = [int(i) for i in self._pin_eq[k] if i >= 0]
+            if not d.eq_active[ids[0]]:
+                continue
+            total = sum(self._equality_force(i) for i in ids)  # the pin's and the clamp's force on the plug
+            if float(np.linalg.norm(total)) > self.scene.pins[k].release_force:
+                d.eq_active[ids] = 0
+
+    # -- read-outs ------------------------------------------------------------------------------------------------
+
+    def positions(self) -> np.ndarray:
+        return self.mj_data.site_xpos[self._sites].copy()
+
+    def velocities(self) -> np.ndarray:
+        m, d = self.mj_model, self.mj_data
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        b = self._site_body
+        cvel = d.cvel[b]  # [ω, v] at the subtree com of each body's root
+        c = d.subtree_com[m.body_rootid[b]]
+        return cvel[:, 3:] + np.cross(cvel[:, :3], d.site_xpos[self._sites] - c)
+
+    def particle_masses(self) -> np.ndarray:
+        return self.scene.cable.particle_masses + self._added
+
+    def _tree_wrench(self, k: int) -> np.ndarray:
+        """(6,) [torque about the pinned particle, force] that the parent of the body holding pin ``k``'s
+        particle transmits to it (``cfrc_int``)."""
+        m, d = self.mj_model, self.mj_data
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        mujoco.mj_rnePostConstraint(m, d)
+        i = self.scene.pin_particle(k)
+        b = int(self._site_body[i])
+        torque, force = d.cfrc_int[b, :3], d.cfrc_int[b, 3:]
+        about = d.subtree_com[m.body_rootid[b]] - d.site_xpos[self._sites[i]]
+        return np.concatenate([torque + np.cross(about, force), force])
+
+    def pin_forces(self) -> np.ndarray:
+        return self._pin_wrenches()[:, 3:]
+
+    def pin_torques(self) -> np.ndarray:
+        return self._pin_wrenches()[:, :3]
+
+    def _pin_wrenches(self) -> np.ndarray:
+        scene = self.scene
+        out = np.zeros((len(scene.pins), 6))
+        x = self.mj_data.site_xpos[self._sites]
+        for k in range(len(scene.pins)):
+            eq, eq_clamp = (int(e) for e in self._pin_eq[k])
+            if eq < 0:
+                out[k] = self._tree_wrench(k)
+                continue
+            if not self.mj_data.eq_active[eq]:
+                continue
+            out[k, 3:] = self._equality_force(eq)
+            if eq_clamp >= 0:
+                f = self._equality_force(eq_clamp)
+                out[k, 3:] += f
+                i, j = scene.pin_particle(k), scene.clamp_neighbour(k)
+                out[k, :3] = np.cross(x[j] - x[i], f)
+        return out
+
+    def gripper_positions(self) -> np.ndarray:
+        return self.mj_data.mocap_pos[self._gripper_mocap].copy()
+
+    def move_gripper(self, k: int, position: np.ndarray) -> None:
+        i = self._mocap_of_pin[k]
+        self._gripper_from.setdefault(i, self.mj_data.mocap_pos[i].copy())
+        self.mj_data.mocap_pos[i] = position
+
+    def add_point_mass(self, index: int, mass: float) -> None:
+        """Add ``mass`` at particle ``index``'s site to the body holding it: the body's mass, centre of mass and
+        inertia (parallel-axis theorem, re-diagonalised) change as for a point mass there; ``mj_setConst`` then
+        refreshes MuJoCo's derived constants, and the state is put back."""
+        m, d = self.mj_model, self.mj_data
+        site = int(self._sites[index])
+        b = int(m.site_bodyid[site])
+        old = float(m.body_mass[b])
+        new = old + mass
+        # everything in the body frame: the old com and principal inertia, the point at the site
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, m.body_iquat[b])
+        rot = rot.reshape(3, 3)
+        c_old = m.body_ipos[b].copy()
+        point = m.site_pos[site].copy()
+        c_new = (old * c_old + mass * point) / new
+        tensor = rot @ np.diag(m.body_inertia[b]) @ rot.T
+        for mm, r in ((old, c_old - c_new), (mass, point - c_new)):
+            tensor += mm * (np.dot(r, r) * np.eye(3) - np.outer(r, r))
+        principal, axes = np.linalg.eigh(tensor)
+        if np.linalg.det(axes) < 0:
+            axes[:, 0] = -axes[:, 0]
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, axes.ravel())
+        m.body_mass[b] = new
+        m.body_ipos[b] = c_new
+        m.body_iquat[b] = quat
+        m.body_inertia[b] = np.maximum(principal, 0.0)
+        state = [a.copy() for a in (d.qpos, d.qvel, d.act, d.mocap_pos, d.mocap_quat, d.eq_active)]
+        mujoco.mj_setConst(m, d)  # uses d as scratch at qpos0: put the state back
+        for dst, src in zip((d.qpos, d.qvel, d.act, d.mocap_pos, d.mocap_quat, d.eq_active), state):
+            dst[:] = src
+        mujoco.mj_forward(m, d)
+        self._refresh()
+        self._added[index] += mass
+
+    @property
+    def released(self) -> set:
+        d = self.mj_data
+        return {k for k in self._sockets if not d.eq_active[int(self._pin_eq[k, 0])]}
+
+    def diagnostics(self) -> dict:
+        return {"contacts": int(self.mj_data.ncon), "constraints": int(self.mj_data.nefc)}

@@ -1,0 +1,177 @@
+"""The catalogue of cable models: one registry that everything else asks which models exist.
+
+Each :class:`ModelEntry` holds a model's name, its family (``"native"``: MuJoCo steps it; ``"particle"``: one of
+our solvers steps it and MuJoCo gives the contacts), its frozen settings dataclass (keyword-only, validated once,
+defaults documented on the class), its ``MjSpec`` builder and its backend. The Simulator, ``mjcable.build``,
+the bench, the renderer, the environments and the CLI all derive their model lists from here
+(:func:`names`); ``mjcable.MODELS``, ``NATIVE_MODELS`` and ``PARTICLE_MODELS`` are live views of it.
+
+Adding a model takes one module (its builder and, for a particle model, its ``rules``) and one :func:`register`
+call::
+
+    from mjcable import catalog
+    from mjcable.backends.particle import ParticleBackend, proxy_builder
+    from mjcable.solvers import xpbd
+    from mjcable.solvers.settings import XPBDSettings
+
+    catalog.register(catalog.ModelEntry(
+        name="xpbd-gs", family="particle", settings=XPBDSettings, build=proxy_builder,
+        backend=ParticleBackend, rules=xpbd.rules, summary="XPBD, Gauss-Seidel by default"))
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Callable, Dict, Optional
+
+import mujoco
+
+from mjcable import _validate
+from mjcable.backends.native import NativeBackend, spec_builder
+from mjcable.backends.particle import ParticleBackend, proxy_builder
+from mjcable.mjcf import composite, flexrod, joints, springs
+from mjcable.mjcf.settings import CompositeSettings, FlexrodSettings, JointsSettings, SpringsSettings
+from mjcable.scene import Scene
+from mjcable.solvers import jakobsen, pbd, xpbd
+from mjcable.solvers.settings import JakobsenSettings, PBDSettings, XPBDSettings
+
+__all__ = ["ModelEntry", "FAMILIES", "register", "unregister", "get", "names", "check_model", "make_settings",
+           "build", "check_dt"]
+
+FAMILIES = ("native", "particle")
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ModelEntry:
+    """One cable model.
+
+    Attributes:
+      name: the model's name (``Simulator(scene, name)``).
+      family: ``"native"`` (MuJoCo steps it) or ``"particle"`` (a particle solver steps it).
+      settings: its frozen, keyword-only settings dataclass; ``settings()`` holds the defaults.
+      build: ``(scene, settings, dt) -> mujoco.MjSpec``, the model (native) or its proxy (particle).
+      backend: ``(scene, entry, dt, settings) -> Backend`` (:class:`mjcable.backends.protocol.Backend`).
+      rules: particle models only: ``(scene, settings, h) -> Rules``, the kernels' parameters.
+      summary: one line for listings.
+    """
+
+    name: str
+    family: str
+    settings: type
+    build: Callable[[Scene, Any, float], mujoco.MjSpec]
+    backend: Callable[..., Any]
+    rules: Optional[Callable] = None
+    summary: str = ""
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
+            raise ValueError(f"name must be a non-empty identifier (dashes allowed), got {self.name!r}")
+        _validate.choice("family", self.family, FAMILIES)
+        if not (isinstance(self.settings, type) and dataclasses.is_dataclass(self.settings)):
+            raise ValueError(f"settings must be a dataclass type, got {self.settings!r}")
+        for field in ("build", "backend"):
+            if not callable(getattr(self, field)):
+                raise ValueError(f"{field} must be callable, got {getattr(self, field)!r}")
+        if self.family == "particle" and not callable(self.rules):
+            raise ValueError(f"rules must be callable for a particle model, got {self.rules!r}")
+
+
+_REGISTRY: Dict[str, ModelEntry] = {}
+
+
+def register(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
+    """Add ``entry`` to the catalogue (``replace=True`` to overwrite a model of the same name). Returns it."""
+    if not isinstance(entry, ModelEntry):
+        raise ValueError(f"entry must be a catalog.ModelEntry, got {type(entry).__name__}")
+    if entry.name in _REGISTRY and not replace:
+        raise ValueError(f"model {entry.name!r} is already registered; pass replace=True to overwrite it")
+    _REGISTRY[entry.name] = entry
+    return entry
+
+
+def unregister(name: str) -> None:
+    """Remove model ``name`` from the catalogue."""
+    check_model(name)
+    del _REGISTRY[name]
+
+
+def names(family: Optional[str] = None) -> tuple:
+    """Names of the registered models in registration order, all or those of one ``family``."""
+    if family is not None:
+        _validate.choice("family", family, FAMILIES)
+    return tuple(n for n, e in _REGISTRY.items() if family is None or e.family == family)
+
+
+def check_model(name) -> str:
+    """``name``, checked to be a registered model."""
+    if not isinstance(name, str) or name not in _REGISTRY:
+        raise ValueError(f"model must be one of {names()}, got {name!r}")
+    return name
+
+
+def get(name: str) -> ModelEntry:
+    """The catalogue entry of model ``name``."""
+    return _REGISTRY[check_model(name)]
+
+
+def make_settings(name: str, **settings):
+    """Model ``name``'s validated settings dataclass with ``settings`` overriding its defaults.
+
+    Raises:
+      ValueError: an unknown model, a setting the model does not take, or a value outside its range.
+
+    Example::
+
+        s = catalog.make_settings("xpbd", substeps=10)   # XPBDSettings(substeps=10, order='direct', ...)
+    """
+    cls = get(name).settings
+    allowed = [f.name for f in dataclasses.fields(cls)]
+    unknown = sorted(set(settings) - set(allowed))
+    if unknown:
+        raise ValueError(f"unknown setting(s) {unknown} for model {name!r}; allowed: {sorted(allowed)}")
+    return cls(**settings)
+
+
+def check_dt(dt) -> float:
+    """``dt`` in seconds, checked finite and > 0."""
+    return _validate.number("dt", dt, low=0.0, low_open=True, unit="s")
+
+
+def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.MjSpec:
+    """The MuJoCo spec of ``scene`` for ``model``.
+
+    Args:
+      scene: the scene.
+      model: a name from :func:`names`.
+      dt: the simulator's step in seconds (> 0); native models step MuJoCo at ``dt / substeps``.
+      **settings: the model's settings (see its entry's settings dataclass).
+
+    Returns:
+      An uncompiled ``mujoco.MjSpec``: the whole model for native models, the proxy (the scene plus one capsule
+      per segment, for contacts and rendering) for particle models. ``spec.compile()`` gives the ``MjModel``.
+
+    Example::
+
+        spec = mjcable.build(mjcable.scenes.get("hang"), "flexrod")
+        mj_model = spec.compile()
+    """
+    if not isinstance(scene, Scene):
+        raise ValueError(f"scene must be an mjcable.Scene, got {type(scene).__name__}")
+    entry = get(model)
+    dt = check_dt(dt)
+    return entry.build(scene, make_settings(model, **settings), dt)
+
+
+for _module, _settings, _summary in (
+        (springs, SpringsSettings, "point masses joined by spring tendons (MuJoCo)"),
+        (joints, JointsSettings, "ball-joint capsule chain (MuJoCo)"),
+        (composite, CompositeSettings, "MuJoCo's cable plugin (composite)"),
+        (flexrod, FlexrodSettings, "1D flexcomp, a discrete elastic rod (MuJoCo)")):
+    register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="native", settings=_settings,
+                        build=spec_builder(_module.build), backend=NativeBackend, summary=_summary))
+for _module, _settings, _summary in (
+        (jakobsen, JakobsenSettings, "Jakobsen's Verlet relaxation"),
+        (pbd, PBDSettings, "Position Based Dynamics"),
+        (xpbd, XPBDSettings, "Extended Position Based Dynamics, direct (banded) order")):
+    register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="particle", settings=_settings,
+                        build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary))
