@@ -15,15 +15,14 @@ Example::
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import Optional
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from mjcable.scene import GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
+from mjcable import geometry
+from mjcable.scene import GRAVITY, Box, Floor, Scene
 
 __all__ = [
     "segment_lengths",
@@ -84,36 +83,9 @@ def max_distance(positions, reference) -> float:
     return float(np.sqrt(np.max(np.sum((a - b) ** 2, axis=1))))
 
 
-@functools.lru_cache(maxsize=256)
-def _frame(euler: tuple) -> np.ndarray:
-    """World-from-obstacle rotation matrix for MuJoCo's intrinsic xyz Euler angles in degrees (as build.world)."""
-    return Rotation.from_euler("XYZ", euler, degrees=True).as_matrix()
-
-
-def _local(points: np.ndarray, ob) -> np.ndarray:
-    """Points in the obstacle's frame."""
-    return (points - np.asarray(ob.pos)) @ _frame(tuple(ob.euler))
-
-
 def _signed_distance(points: np.ndarray, ob) -> np.ndarray:
     """Signed distance in metres from each point to the obstacle's surface (negative inside)."""
-    q = _local(points, ob)
-    if isinstance(ob, Floor):
-        return q[:, 2]
-    if isinstance(ob, Box):
-        d = np.abs(q) - np.asarray(ob.size)
-        outside = np.linalg.norm(np.maximum(d, 0.0), axis=1)
-        inside = np.minimum(np.max(d, axis=1), 0.0)
-        return outside + inside
-    if isinstance(ob, Sphere):
-        return np.linalg.norm(q, axis=1) - ob.radius
-    if isinstance(ob, Capsule):  # before Cylinder: a Capsule is a Cylinder subclass
-        z = np.clip(q[:, 2], -ob.half_length, ob.half_length)
-        return np.linalg.norm(q - np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1), axis=1) - ob.radius
-    if isinstance(ob, Cylinder):
-        d = np.stack([np.hypot(q[:, 0], q[:, 1]) - ob.radius, np.abs(q[:, 2]) - ob.half_length], axis=1)
-        return np.minimum(np.max(d, axis=1), 0.0) + np.linalg.norm(np.maximum(d, 0.0), axis=1)
-    raise ValueError(f"unsupported obstacle {ob!r}")  # pragma: no cover - Scene validates obstacle types
+    return geometry.signed_distances(points, ob)[0]
 
 
 def signed_distances(positions, scene: Scene) -> np.ndarray:
@@ -178,7 +150,7 @@ def crossed(positions, scene: Scene, start_positions=None) -> np.ndarray:
     for ob in scene.obstacles:
         out |= _signed_distance(x, ob) < -_thickness(ob)
         if isinstance(ob, Box):
-            q, q0 = _local(x, ob), _local(x0, ob)
+            q, q0 = geometry.to_local(x, ob), geometry.to_local(x0, ob)
             size = np.asarray(ob.size)
             for axis in range(3):
                 others = [k for k in range(3) if k != axis]

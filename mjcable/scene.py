@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from typing import Optional, Tuple
+from typing import ClassVar, Optional, Tuple
 
 import numpy as np
 
@@ -215,11 +215,14 @@ class Obstacle:
 class Floor(Obstacle):
     """An infinite plane through ``pos``, normal along the rotated z axis."""
 
+    shape: ClassVar[str] = "plane"
+
 
 @dataclasses.dataclass(frozen=True)
 class Box(Obstacle):
     """A box with half-extents ``size`` in metres (a table is a box)."""
 
+    shape: ClassVar[str] = "box"
     size: Vec3 = (0.5, 0.5, 0.05)
 
     def __post_init__(self):
@@ -243,11 +246,14 @@ class _Round(Obstacle):
 class Sphere(_Round):
     """A sphere of ``radius`` metres."""
 
+    shape: ClassVar[str] = "sphere"
+
 
 @dataclasses.dataclass(frozen=True)
 class Cylinder(_Round):
     """A cylinder of ``radius`` and ``half_length`` metres along its local z axis."""
 
+    shape: ClassVar[str] = "cylinder"
     half_length: float = 0.25
 
     def __post_init__(self):
@@ -258,6 +264,8 @@ class Cylinder(_Round):
 @dataclasses.dataclass(frozen=True)
 class Capsule(Cylinder):
     """A capsule of ``radius`` and cylinder ``half_length`` metres along its local z axis."""
+
+    shape: ClassVar[str] = "capsule"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,10 +14,13 @@ import pytest
 from dm_env import test_utils
 from scipy import optimize
 
+import mjcable
 from mjcable import envs
-MODELS = mjcable.MODELS
+
 from mjcable.envs import workspace as ws
 from mjcable.scene import Box, Capsule, Cylinder, Floor, Sphere
+
+MODELS = mjcable.MODELS
 
 TASKS = envs.names()
 SHORT_LIMIT = 0.2  # s: conformance episodes of 10 control steps, so the action sequence crosses an episode's end

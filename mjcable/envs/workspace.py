@@ -17,14 +17,13 @@ allowed position: the gripper stops instead of entering a forbidden region.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from mjcable.scene import Box, Capsule, Cylinder, Floor, Obstacle, Scene, Sphere
+from mjcable.geometry import signed_distance
+from mjcable.scene import Scene
 
 __all__ = ["Workspace", "Tether", "STRETCH_MARGIN", "signed_distance"]
 
@@ -32,75 +31,6 @@ STRETCH_MARGIN = 0.01  # fraction of the cable between two pins that their dista
 _PROJECTION_ROUNDS = 4  # alternating projections (box, tethers, obstacles) per increment
 _TOLERANCE = 1e-9  # m: slack when checking a projected point against the constraints
 _INCREMENT_FRACTION = 0.5  # of the clearance: the longest straight increment of a gripper motion
-
-
-@functools.lru_cache(maxsize=256)
-def _frame(ob: Obstacle) -> Tuple[np.ndarray, np.ndarray]:
-    """The obstacle's (3, 3) rotation matrix (MuJoCo's intrinsic xyz Euler angles in degrees) and (3,) position."""
-    rot = Rotation.from_euler("XYZ", ob.euler, degrees=True).as_matrix()
-    rot.setflags(write=False)
-    pos = np.array(ob.pos)
-    pos.setflags(write=False)
-    return rot, pos
-
-
-def _local_distance(ob: Obstacle, q: np.ndarray) -> Tuple[float, np.ndarray]:
-    """Signed distance (m, negative inside) of the local point ``q`` (3,) and the outward unit normal (3,)."""
-    if isinstance(ob, Floor):
-        return float(q[2]), np.array([0.0, 0.0, 1.0])
-    if isinstance(ob, Box):
-        size = np.asarray(ob.size)
-        excess = np.abs(q) - size
-        if np.any(excess > 0.0):
-            closest = np.clip(q, -size, size)
-            offset = q - closest
-            d = float(np.linalg.norm(offset))
-            return d, offset / d
-        axis = int(np.argmax(excess))
-        normal = np.zeros(3)
-        normal[axis] = 1.0 if q[axis] >= 0.0 else -1.0
-        return float(excess[axis]), normal
-    if isinstance(ob, Sphere):
-        return _round_distance(q, ob.radius)
-    if isinstance(ob, Capsule):
-        axial = np.array([0.0, 0.0, float(np.clip(q[2], -ob.half_length, ob.half_length))])
-        return _round_distance(q - axial, ob.radius)
-    if isinstance(ob, Cylinder):
-        radial = math.hypot(q[0], q[1])
-        d_radial, d_axial = radial - ob.radius, abs(q[2]) - ob.half_length
-        outward = np.array([q[0], q[1], 0.0]) / radial if radial > 0.0 else np.array([1.0, 0.0, 0.0])
-        cap = np.array([0.0, 0.0, 1.0 if q[2] >= 0.0 else -1.0])
-        if d_radial > 0.0 and d_axial > 0.0:  # beyond the rim: nearest point on the circular edge
-            offset = d_radial * outward + d_axial * cap
-            d = float(np.linalg.norm(offset))
-            return d, offset / d
-        if d_radial >= d_axial:
-            return float(d_radial), outward
-        return float(d_axial), cap
-    raise ValueError(f"unsupported obstacle {ob!r}")  # pragma: no cover - Scene validates obstacle types
-
-
-def _round_distance(q: np.ndarray, radius: float) -> Tuple[float, np.ndarray]:
-    r = float(np.linalg.norm(q))
-    normal = q / r if r > 0.0 else np.array([0.0, 0.0, 1.0])
-    return r - radius, normal
-
-
-def signed_distance(ob: Obstacle, point) -> Tuple[float, np.ndarray]:
-    """Signed distance from ``point`` (3,), metres, world frame, to the surface of ``ob`` and the outward unit normal.
-
-    Returns:
-      ``(distance, normal)``: distance in metres, negative inside the obstacle; ``normal`` (3,) in the world frame
-      points away from the obstacle (the direction that increases the distance fastest).
-
-    Example::
-
-        d, n = signed_distance(mjcable.Sphere(radius=0.1), [0.0, 0.0, 0.3])  # d = 0.2, n = (0, 0, 1)
-    """
-    rot, pos = _frame(ob)
-    local = rot.T @ (np.asarray(point, dtype=np.float64) - pos)
-    d, normal = _local_distance(ob, local)
-    return d, rot @ normal
 
 
 @dataclasses.dataclass(frozen=True)

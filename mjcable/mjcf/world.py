@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from mjcable import geometry
 from mjcable.scene import GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
 
 __all__ = [
@@ -63,11 +64,6 @@ def gripper_body(k: int) -> str:
 
 def pin_equality(k: int, clamp: bool = False) -> str:
     return f"pin{k}_clamp" if clamp else f"pin{k}"
-
-
-def _quat(euler_deg) -> np.ndarray:
-    """MuJoCo's default intrinsic xyz Euler angles in degrees → quaternion (w, x, y, z)."""
-    return Rotation.from_euler("XYZ", euler_deg, degrees=True).as_quat(scalar_first=True)
 
 
 def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -> mujoco.MjSpec:
@@ -151,7 +147,7 @@ def _axes_quat(x_axis, y_axis) -> np.ndarray:
 def _add_obstacle(world, scene: Scene, i: int, ob) -> None:
     mu = scene.cable.friction if ob.friction is None else ob.friction
     common = dict(
-        name=f"obstacle{i}", pos=ob.pos, quat=_quat(ob.euler),
+        name=f"obstacle{i}", pos=ob.pos, quat=geometry.quaternion(ob.euler),
         friction=[mu, *_TORSION_ROLL_FRICTION], priority=1,  # higher priority: this μ is the one in force
         contype=OBSTACLE_CONTYPE, conaffinity=OBSTACLE_CONTYPE, condim=3,
     )

@@ -40,7 +40,6 @@ import math
 from collections import namedtuple
 
 import numba
-import numpy as np
 
 __all__ = [
     "Chain",
