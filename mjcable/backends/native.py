@@ -89,7 +89,6 @@ class NativeBackend:
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]
         self._gripper_from = {}  # mocap id -> its position at the start of the next step (grippers moved since)
         self._added = np.zeros(n)  # kg of point masses added per particle
-        self._steps_since_reset = 0
         self.reset()
 
     # -- the step -------------------------------------------------------------------------------------------------
@@ -174,17 +173,26 @@ class NativeBackend:
         return self.scene.cable.particle_masses + self._added
 
     def _tree_wrench(self, k: int) -> np.ndarray:
-        """(6,) [torque about the pinned particle, force] that the parent of the body holding pin ``k``'s
-        particle transmits to it (``cfrc_int``)."""
+        """(6,) [torque about the pinned particle, force] that the holder (world or gripper) transmits to the
+        body holding pin ``k``'s particle (``cfrc_int``), plus, for a clamp, to the neighbour particle's body when
+        that one is welded to the holder too (no joints of its own, as in ``springs``)."""
         m, d = self.mj_model, self.mj_data
         mujoco.mj_comPos(m, d)
         mujoco.mj_comVel(m, d)
         mujoco.mj_rnePostConstraint(m, d)
         i = self.scene.pin_particle(k)
-        b = int(self._site_body[i])
-        torque, force = d.cfrc_int[b, :3], d.cfrc_int[b, 3:]
-        about = d.subtree_com[m.body_rootid[b]] - d.site_xpos[self._sites[i]]
-        return np.concatenate([torque + np.cross(about, force), force])
+        bodies = [int(self._site_body[i])]
+        if self.scene.pins[k].clamp:
+            j = int(self._site_body[self.scene.clamp_neighbour(k)])
+            if j != bodies[0] and m.body_jntnum[j] == 0:
+                bodies.append(j)
+        out = np.zeros(6)
+        for b in bodies:
+            torque, force = d.cfrc_int[b, :3], d.cfrc_int[b, 3:]
+            about = d.subtree_com[m.body_rootid[b]] - d.site_xpos[self._sites[i]]
+            out[:3] += torque + np.cross(about, force)
+            out[3:] += force
+        return out
 
     def pin_forces(self) -> np.ndarray:
         return self._pin_wrenches()[:, 3:]
