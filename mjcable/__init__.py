@@ -1,6 +1,7 @@
 """mjcable: cable, rope and wire scenes on MuJoCo, with MuJoCo's native cable models and our own
 Jakobsen/PBD/XPBD solvers compared head to head."""
 
+import importlib
 import os
 
 # Offscreen rendering (mjcable.render, dm_control) on EGL unless the user chose otherwise. MuJoCo reads MUJOCO_GL when
@@ -42,11 +43,16 @@ __version__ = "0.1.0"
 
 
 _FAMILY_VIEWS = {"MODELS": None, "NATIVE_MODELS": "native", "PARTICLE_MODELS": "particle"}
+# Subpackages imported on first attribute access (they pull in dm_control, matplotlib or ffmpeg): after
+# ``import mjcable``, ``mjcable.envs.load`` resolves like any other name.
+_LAZY_SUBMODULES = ("backends", "bench", "envs", "export", "geometry", "io", "metrics", "reference", "render")
 
 
 def __getattr__(name: str):
     """``MODELS``, ``NATIVE_MODELS`` and ``PARTICLE_MODELS``: live views of :mod:`mjcable.catalog` (a model
-    registered later shows up in them)."""
+    registered later shows up in them); the heavier subpackages, imported on first access."""
     if name in _FAMILY_VIEWS:
         return catalog.names(_FAMILY_VIEWS[name])
+    if name in _LAZY_SUBMODULES:
+        return importlib.import_module(f"mjcable.{name}")
     raise AttributeError(f"module 'mjcable' has no attribute {name!r}")

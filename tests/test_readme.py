@@ -1,0 +1,52 @@
+"""The README says what the code does: every dotted ``mjcable.…`` name in it resolves, and its table of default
+settings is the catalogue's."""
+
+import ast
+import dataclasses
+import re
+from pathlib import Path
+
+import pytest
+
+import mjcable
+from mjcable import catalog
+
+README = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
+DOTTED = re.compile(r"(?<![\w/.-])mjcable(?:\.[A-Za-z_]\w*)+")
+DEFAULTS_HEADING = "### Default settings"
+
+
+def test_readme_names_some_dotted_names():
+    assert len(set(DOTTED.findall(README))) >= 10
+
+
+@pytest.mark.parametrize("name", sorted(set(DOTTED.findall(README))))
+def test_every_dotted_name_in_the_readme_resolves_by_attribute_access(name):
+    obj = mjcable
+    for part in name.split(".")[1:]:
+        assert hasattr(obj, part), f"{name}: {obj!r} has no attribute {part!r}"
+        obj = getattr(obj, part)
+
+
+def _defaults_table() -> dict:
+    """{model: {setting: value}} from the README's defaults table (`` `name=value` `` cells)."""
+    start = README.index(DEFAULTS_HEADING)
+    rows = {}
+    for line in README[start:].splitlines()[1:]:
+        if line.startswith("#"):
+            break
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) < 3 or not cells[0].startswith("`"):
+            continue
+        model = cells[0].strip("`")
+        pairs = re.findall(r"`(\w+)=([^`]*)`", cells[-1])
+        rows[model] = {k: ast.literal_eval(v) for k, v in pairs}
+    return rows
+
+
+def test_readme_defaults_table_is_the_catalogues():
+    table = _defaults_table()
+    assert set(table) == set(catalog.names())
+    for model, written in table.items():
+        defaults = dataclasses.asdict(catalog.make_settings(model))
+        assert written == defaults, f"README defaults of {model!r} differ from the code's {defaults}"
