@@ -106,17 +106,17 @@ def penetration(positions, scene: Scene) -> float:
     return float(max(scene.cable.radius - d.min(), 0.0))
 
 
-def contact_penetration(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+def contact_penetration(mj_model: mujoco.MjModel, mj_data: mujoco.MjData) -> float:
     """Deepest penetration in metres among MuJoCo's current contacts (``-min(contact.dist)``, 0 without contacts).
 
-    Runs ``mj_collision`` on a copy-free basis: it refreshes ``data.contact`` from the current positions (after
+    Runs ``mj_collision`` on a copy-free basis: it refreshes ``mj_data.contact`` from the current positions (after
     ``mj_kinematics``), which the next ``mj_step`` recomputes anyway.
     """
-    mujoco.mj_kinematics(model, data)
-    mujoco.mj_collision(model, data)
-    if data.ncon == 0:
+    mujoco.mj_kinematics(mj_model, mj_data)
+    mujoco.mj_collision(mj_model, mj_data)
+    if mj_data.ncon == 0:
         return 0.0
-    return float(max(-np.min(data.contact.dist[: data.ncon]), 0.0))
+    return float(max(-np.min(mj_data.contact.dist[: mj_data.ncon]), 0.0))
 
 
 def _thickness(ob) -> float:

@@ -28,26 +28,26 @@ class ObstacleContacts:
 
     Args:
       scene: the scene.
-      model, data: the compiled proxy (``mjcable.mjcf.proxy``) and its data, kinematics current.
+      mj_model, mj_data: the compiled proxy (``mjcable.mjcf.proxy``) and its data, kinematics current.
       segment_geoms: ``(n_segments,)`` geom ids of the proxy capsules.
     """
 
-    def __init__(self, scene: Scene, model: mujoco.MjModel, data: mujoco.MjData, segment_geoms: np.ndarray):
-        self.model, self.data = model, data
+    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, segment_geoms: np.ndarray):
+        self.mj_model, self.mj_data = mj_model, mj_data
         self.radius = scene.cable.radius
-        self.obstacle_geoms = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obstacle{k}")
+        self.obstacle_geoms = np.array([mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_GEOM, f"obstacle{k}")
                                         for k in range(len(scene.obstacles))], dtype=np.int64)
-        self.segment_of_geom = np.full(model.ngeom, -1, dtype=np.int64)
+        self.segment_of_geom = np.full(mj_model.ngeom, -1, dtype=np.int64)
         self.segment_of_geom[segment_geoms] = np.arange(len(segment_geoms))
         self._margin = None
         # Static obstacles: world bounding boxes, planes as half-spaces (normal, point).
-        planes = model.geom_type[self.obstacle_geoms] == mujoco.mjtGeom.mjGEOM_PLANE
-        self._plane_n = np.ascontiguousarray(data.geom_xmat[self.obstacle_geoms[planes]].reshape(-1, 3, 3)[:, :, 2])
-        self._plane_p = np.ascontiguousarray(data.geom_xpos[self.obstacle_geoms[planes]])
+        planes = mj_model.geom_type[self.obstacle_geoms] == mujoco.mjtGeom.mjGEOM_PLANE
+        self._plane_n = np.ascontiguousarray(mj_data.geom_xmat[self.obstacle_geoms[planes]].reshape(-1, 3, 3)[:, :, 2])
+        self._plane_p = np.ascontiguousarray(mj_data.geom_xpos[self.obstacle_geoms[planes]])
         boxes = self.obstacle_geoms[~planes]
-        rot = data.geom_xmat[boxes].reshape(-1, 3, 3)
-        aabb = model.geom_aabb[boxes]
-        center = data.geom_xpos[boxes] + np.einsum("kij,kj->ki", rot, aabb[:, :3])
+        rot = mj_data.geom_xmat[boxes].reshape(-1, 3, 3)
+        aabb = mj_model.geom_aabb[boxes]
+        center = mj_data.geom_xpos[boxes] + np.einsum("kij,kj->ki", rot, aabb[:, :3])
         half = np.einsum("kij,kj->ki", np.abs(rot), aabb[:, 3:])
         self._box_lo, self._box_hi = np.ascontiguousarray(center - half), np.ascontiguousarray(center + half)
         self._seg = np.zeros(0, dtype=np.int64)
@@ -65,7 +65,7 @@ class ObstacleContacts:
           ``out`` with its obstacle-contact arrays replaced by views of this query's buffers: segment (C,),
           [s, n, offset, μ] (C, 6), multipliers (C, 2).
         """
-        m, d = self.model, self.data
+        m, d = self.mj_model, self.mj_data
         if margin != self._margin:
             m.pair_margin[:] = margin
             self._margin = margin
