@@ -19,13 +19,13 @@ import importlib
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Optional, Sequence
+from typing import Callable, Dict, Optional, Sequence, Tuple
 
-__all__ = ["main", "build_parser", "DEMO_FILE", "DEMO_SCENE"]
+__all__ = ["main", "build_parser", "demo_selection", "DEMO_FILE", "DEMO_SCENE"]
 
 DEMO_FILE = "mjcable-demo.mp4"
 DEMO_SCENE = "table"
-DEMO_SECONDS = 3.0  # s of video: well under 5 minutes of rendering for all seven models on 2 CPU cores
+DEMO_SECONDS = 3.0  # s of video: a few minutes of rendering for every model on 2 CPU cores
 DEMO_TILE = (320, 240)  # pixels per tile (width, height)
 RENDER_SIZE = (640, 480)  # pixels (width, height) of `mjcable render` with one model
 GRID_TILE = (320, 240)  # pixels per tile of `mjcable render` with several models
@@ -55,7 +55,7 @@ def _positive_int(text: str) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``mjcable`` command."""
-    from mjcable import MODELS, __version__, scenes
+    from mjcable import __version__, catalog, scenes
 
     parser = argparse.ArgumentParser(prog="mjcable", description="Cable scenes on MuJoCo: native cable models and "
                                      "Jakobsen/PBD/XPBD solvers, simulated, rendered and compared.")
@@ -79,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     source.add_argument("--scene", choices=scenes.names(), help="built-in scene")
     source.add_argument("--env", metavar="TASK", help="dm_control task of mjcable.envs (e.g. reach_sag)")
     render.add_argument("--model", nargs="+", required=True, metavar="MODEL",
-                        help=f"one or more of {', '.join(MODELS)}, or 'all' (every available model); several "
+                        help=f"one or more of {', '.join(catalog.names())}, or 'all' (every available model); several "
                              "models are rendered side by side")
     render.add_argument("-o", "--out", required=True, help="video file (.mp4)")
     render.add_argument("--seconds", type=_positive_float, default=5.0, help="simulated seconds (default 5)")
@@ -131,27 +131,35 @@ def _report_problems(problems: dict) -> None:
         print(f"mjcable: model {model!r} failed and was left out: {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
+def demo_selection() -> Tuple[str, Tuple[str, ...], Dict[str, Exception]]:
+    """What ``mjcable demo`` renders: ``(scene, models, problems)``, the models being every model of the catalogue
+    (asked at call time, so a model registered at run time is in it) that builds :data:`DEMO_SCENE`, and
+    ``problems`` ``{model: exception}`` those that failed to."""
+    from mjcable import render
+
+    models, problems = render.available_models(DEMO_SCENE)
+    return DEMO_SCENE, models, problems
+
+
 def _demo(args) -> int:
     from mjcable import render
 
-    out = Path(args.out)
     start = time.perf_counter()
-    models, problems = render.available_models(DEMO_SCENE)
+    scene, models, problems = demo_selection()
     _report_problems(problems)
     if not models:
         print("mjcable demo: no model is available", file=sys.stderr)
         return EXIT_FAILED
-    print(f"mjcable demo: rendering {', '.join(models)} on the {DEMO_SCENE!r} scene ({args.seconds:g} s)",
-          file=sys.stderr)
-    path = render.render_grid(DEMO_SCENE, models, out, seconds=args.seconds, fps=args.fps, tile_width=args.width,
-                              tile_height=args.height)
+    print(f"mjcable demo: rendering {', '.join(models)} on the {scene!r} scene ({args.seconds:g} s)", file=sys.stderr)
+    path = render.render_grid(scene, models, Path(args.out), seconds=args.seconds, fps=args.fps,
+                              tile_width=args.width, tile_height=args.height)
     print(f"mjcable demo: done in {time.perf_counter() - start:.1f} s", file=sys.stderr)
     print(path.resolve())
     return EXIT_FAILED if problems else EXIT_OK
 
 
 def _render(args) -> int:
-    from mjcable import MODELS, render
+    from mjcable import catalog, render
 
     if args.env is not None:
         return _render_env(args)
@@ -164,9 +172,9 @@ def _render(args) -> int:
         if not models:
             print("mjcable render: no model is available", file=sys.stderr)
             return EXIT_FAILED
-    bad = [m for m in models if m not in MODELS]
+    bad = [m for m in models if m not in catalog.names()]
     if bad:
-        raise ValueError(f"--model must be 'all' or names from {MODELS}, got {bad}")
+        raise ValueError(f"--model must be 'all' or names from {catalog.names()}, got {bad}")
     width, height = _size(args, RENDER_SIZE if len(models) == 1 else GRID_TILE)
     if len(models) == 1:
         path = render.render_video(args.scene, models[0], args.out, seconds=args.seconds, fps=args.fps,
@@ -183,11 +191,7 @@ def _render_env(args) -> int:
 
     if len(args.model) != 1 or args.model[0] == "all":
         raise ValueError(f"--env takes exactly one --model, got {args.model}")
-    envs = _optional_module("mjcable.envs", "environments (--env)")
-    if envs is None or not hasattr(envs, "load"):
-        if envs is not None:
-            print("mjcable: environments (--env) need mjcable.envs.load, which is not available yet", file=sys.stderr)
-        return EXIT_FAILED
+    envs = importlib.import_module("mjcable.envs")  # imported here: dm_control is slow to import
     settings = {} if args.dt is None else {"dt": args.dt}
     env = envs.load(args.env, args.model[0], random=args.seed, **settings)
     camera = "overview" if args.camera == "track" else args.camera
@@ -223,24 +227,11 @@ def _export(args) -> int:
 
 def _bench_command(name: str) -> Callable[[argparse.Namespace], int]:
     def run(args) -> int:
-        bench = _optional_module("mjcable.bench", f"'mjcable {name}'")
-        if bench is None:
-            return EXIT_FAILED
+        bench = importlib.import_module("mjcable.bench")  # imported here: only bench and stress need it
         result = getattr(bench, f"cli_{name}")(args)
         return EXIT_OK if result is None else int(result)
 
     return run
-
-
-def _optional_module(name: str, what: str):
-    """Import ``name`` lazily; if it is not there (yet), say so and return None."""
-    try:
-        return importlib.import_module(name)
-    except ModuleNotFoundError as exc:
-        if exc.name is not None and name.startswith(exc.name):  # the module itself is missing, not a dependency
-            print(f"mjcable: {what} need {name}, which is not available in this installation", file=sys.stderr)
-            return None
-        raise
 
 
 if __name__ == "__main__":  # pragma: no cover

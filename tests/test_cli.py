@@ -1,5 +1,6 @@
 """The ``mjcable`` command: demo, render, export, and the lazily imported bench/stress/env subcommands."""
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -9,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjcable import cli, export, render
+from mjcable import catalog, cli, export, render
 
 TINY = ["--seconds", "0.1", "--fps", "20", "--width", "64", "--height", "48"]
 
@@ -24,6 +25,34 @@ def run(argv, capsys):
     return status, out.out, out.err
 
 
+def test_demo_renders_a_model_registered_at_run_time(capsys):
+    """The demo asks the catalogue when it runs: a model registered just before is among those it renders."""
+    catalog.register(dataclasses.replace(catalog.get("xpbd"), name="throwaway"))
+    try:
+        scene, models, problems = cli.demo_selection()
+        assert scene == cli.DEMO_SCENE
+        assert "throwaway" in models and problems == {}
+        assert models == catalog.names()
+        status, out, _ = run(["render", "--help"], capsys)  # the parser lists the models when it is built
+        assert status == 0 and "throwaway" in out
+    finally:
+        catalog.unregister("throwaway")
+    assert "throwaway" not in cli.demo_selection()[1]
+
+
+def test_demo_renders_what_it_selects(tmp_path, monkeypatch, capsys):
+    """The demo's video holds one tile per selected model (two here, to stay fast; all of them: the slow test)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(cli, "demo_selection", lambda: ("hang", ("springs", "xpbd"), {}))
+    status, out, err = run(["demo", *TINY], capsys)
+    assert status == 0, err
+    assert "springs, xpbd" in err and "'hang'" in err
+    video, fps = render.read_video(Path(out.strip()))
+    assert video.shape == (2, 48, 2 * 64, 3) and fps == pytest.approx(20)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [cli.DEMO_FILE]
+
+
+@pytest.mark.slow
 def test_demo_writes_a_video_of_every_available_model_in_the_current_folder(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     status, out, err = run(["demo", *TINY], capsys)
@@ -31,8 +60,7 @@ def test_demo_writes_a_video_of_every_available_model_in_the_current_folder(tmp_
     path = Path(out.strip())
     assert path == (tmp_path / cli.DEMO_FILE).resolve() and path.is_file()
     video, fps = render.read_video(path)
-    models, _ = render.available_models(cli.DEMO_SCENE)
-    n = len(models)
+    n = len(catalog.names())  # every model builds the demo scene
     rows = math.ceil(n / 4)  # up to 4 per row, rows filled evenly
     columns = math.ceil(n / rows)
     assert video.shape == (2, rows * 48, columns * 64, 3) and fps == pytest.approx(20)
@@ -99,15 +127,6 @@ def test_bench_and_stress_forward_their_options(monkeypatch, capsys):
     assert (stress.quick, stress.out, stress.jobs, stress.models) == (False, "s", None, None)
 
 
-def test_missing_bench_and_envs_say_so(monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "mjcable.bench", None)  # import raises ModuleNotFoundError
-    monkeypatch.setitem(sys.modules, "mjcable.envs", None)
-    status, _, err = run(["bench", "--quick"], capsys)
-    assert status == 1 and "mjcable.bench" in err
-    status, _, err = run(["render", "--env", "drape", "--model", "xpbd", "-o", "x.mp4"], capsys)
-    assert status == 1 and "mjcable.envs" in err
-
-
 def test_render_env_records_an_episode(tmp_path, monkeypatch, capsys):
     """--env goes through mjcable.envs.load(task, model, random=seed); a dm_control suite task stands in for it."""
     from dm_control import suite
@@ -136,9 +155,6 @@ def test_module_runs_as_a_script():
 
 
 def test_render_env_with_mjcable_envs_shows_the_cable(tmp_path, capsys):
-    envs = pytest.importorskip("mjcable.envs")
-    if not hasattr(envs, "load"):
-        pytest.skip("mjcable.envs.load is not available")
     path = tmp_path / "reach.mp4"
     status, _, err = run(["render", "--env", "reach_sag", "--model", "springs", "--seed", "0", "-o", str(path),
                           "--seconds", "0.2", "--fps", "10", "--width", "96", "--height", "72"], capsys)

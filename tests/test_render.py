@@ -1,16 +1,21 @@
-"""Video rendering: frames show the cable and its motion, MP4s are written atomically, arguments are validated."""
+"""Video rendering: frames show the cable and its motion, MP4s are written atomically and read back with
+imageio-ffmpeg, the centreline overlay and the grid layout are where they should be, arguments are validated."""
 
+import dataclasses
 import math
 import os
 import subprocess
 import sys
 
+import imageio_ffmpeg
+import mujoco
 import numpy as np
 import pytest
 
 import mjcable
-from mjcable import io, render
+from mjcable import catalog, io, render
 from mjcable.errors import SimulationDivergedError
+from mjcable.render import grid, overlays
 
 SMALL = dict(width=96, height=72)
 
@@ -50,11 +55,31 @@ def test_render_video_writes_a_readable_mp4_atomically(tmp_path):
     path = tmp_path / "hang.mp4"
     out = render.render_video("hang", "springs", path, seconds=0.2, fps=15, **SMALL)
     assert out == path and path.is_file()
+    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")  # an independent reader of the file
+    meta = next(reader)
+    n = sum(1 for _ in reader)
+    reader.close()
+    assert meta["codec"] == "h264" and tuple(meta["size"]) == (SMALL["width"], SMALL["height"]) and n == 3
+    assert meta["fps"] == pytest.approx(15.0)
     video, fps = render.read_video(path)
     assert fps == pytest.approx(15.0)
     assert video.shape == (3, SMALL["height"], SMALL["width"], 3)
     assert video.std() > 10.0
+    assert all(cable_mask(image).sum() > 20 for image in video)  # the cable survives the H.264 round trip
     assert sorted(p.name for p in tmp_path.iterdir()) == ["hang.mp4"]  # no temporary files left
+
+
+def test_video_io_rejects_bad_arguments(tmp_path):
+    frames = [np.zeros((16, 16, 3), np.uint8)]
+    with pytest.raises(ValueError, match="fps"):
+        render.write_video(tmp_path / "v.mp4", frames, fps=0, shape=(16, 16))
+    with pytest.raises(ValueError, match="width"):
+        render.write_video(tmp_path / "v.mp4", frames, fps=10, shape=(16, 15))
+    with pytest.raises(ValueError, match="shape"):
+        render.write_video(tmp_path / "v.mp4", frames, fps=10, shape=16)
+    with pytest.raises(ValueError, match="path"):
+        render.read_video(tmp_path / "missing.mp4")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_failed_write_leaves_destination_and_no_temp_files(tmp_path):
@@ -106,7 +131,7 @@ class _DivergingSimulator(mjcable.Simulator):
 
 
 def test_diverged_tile_freezes_while_others_go_on(monkeypatch):
-    monkeypatch.setattr(render, "Simulator", _DivergingSimulator)
+    monkeypatch.setattr(render.tiles, "Simulator", _DivergingSimulator)
     w, h = 96, 72
     video = render.grid_frames("drape", ["springs", "flexrod"], seconds=0.5, fps=10, tile_width=w, tile_height=h,
                                camera="overview")
@@ -126,32 +151,102 @@ class _RecordingSimulator(mjcable.Simulator):
 
 
 def test_frames_step_the_simulation_by_one_frame_period(monkeypatch):
-    monkeypatch.setattr(render, "Simulator", _RecordingSimulator)
+    monkeypatch.setattr(render.tiles, "Simulator", _RecordingSimulator)
     _RecordingSimulator.calls = []
     render.frames("hang", "springs", seconds=0.2, fps=25, dt=0.003, **SMALL)
     assert _RecordingSimulator.calls == [pytest.approx(1 / 25)] * 4  # 5 frames: the first shows t = 0
 
 
-class _UnwrittenSimulator(mjcable.Simulator):
-    def __init__(self, scene, model, **kwargs):
-        if model == "pbd":
-            raise NotImplementedError("not yet")
-        if model == "xpbd":
-            raise RuntimeError("a bug")
-        super().__init__(scene, model, **kwargs)
+def _broken_backend(*args, **kwargs):
+    raise NotImplementedError("a model that cannot build")
 
 
-def test_available_models_leaves_out_unwritten_and_reports_bugs(monkeypatch):
-    monkeypatch.setattr(render, "Simulator", _UnwrittenSimulator)
-    models, problems = render.available_models("hang", models=("springs", "pbd", "xpbd"))
-    assert models == ("springs",)
-    assert list(problems) == ["xpbd"] and isinstance(problems["xpbd"], RuntimeError)
+def test_available_models_asks_the_catalogue_and_reports_failures():
+    """A model registered at run time is a candidate; one that fails to build is reported, not hidden."""
+    catalog.register(dataclasses.replace(catalog.get("springs"), name="broken", backend=_broken_backend))
+    try:
+        models, problems = render.available_models("hang")
+        assert "broken" not in models and set(models) == set(catalog.names()) - {"broken"}
+        assert list(problems) == ["broken"] and isinstance(problems["broken"], NotImplementedError)
+        models, problems = render.available_models("hang", models=("broken", "springs"))
+        assert models == ("springs",) and list(problems) == ["broken"]
+    finally:
+        catalog.unregister("broken")
 
 
 def test_every_model_is_available_on_the_demo_scene():
     models, problems = render.available_models("table")
     assert problems == {}
-    assert "springs" in models
+    assert models == catalog.names()
+
+
+def _capsule_scene(maxgeom=100):
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1, 1, 0.1])
+    mj_model = spec.compile()
+    mj_data = mujoco.MjData(mj_model)
+    mujoco.mj_forward(mj_model, mj_data)
+    scn = mujoco.MjvScene(mj_model, maxgeom=maxgeom)
+    cam = mujoco.MjvCamera()
+    mujoco.mjv_updateScene(mj_model, mj_data, mujoco.MjvOption(), None, cam, mujoco.mjtCatBit.mjCAT_ALL, scn)
+    return scn
+
+
+def test_add_centreline_draws_one_capsule_per_segment():
+    scn = _capsule_scene()
+    before = scn.ngeom
+    points = np.array([[0.0, 0.0, 0.5], [0.3, 0.0, 0.5], [0.3, 0.4, 0.5]])
+    assert render.add_centreline(scn, points, 0.01, (0.0, 0.0, 1.0, 1.0)) == 2
+    assert scn.ngeom == before + 2
+    for i, g in enumerate(scn.geoms[before:before + 2]):
+        a, b = points[i], points[i + 1]
+        assert g.type == mujoco.mjtGeom.mjGEOM_CAPSULE
+        np.testing.assert_allclose(g.pos, (a + b) / 2, atol=1e-6)  # centred on the segment
+        np.testing.assert_allclose(g.size[:2], [0.01, 0.01], rtol=1e-6)
+        assert g.size[2] == pytest.approx(np.linalg.norm(b - a) / 2, rel=1e-6)  # half-length
+        axis = np.asarray(g.mat).reshape(3, 3)[:, 2]  # the capsule's axis is its frame's z
+        assert abs(axis @ (b - a)) == pytest.approx(np.linalg.norm(b - a), rel=1e-6)
+        np.testing.assert_allclose(g.rgba, [0, 0, 1, 1])
+
+
+def test_add_centreline_stops_at_the_scene_capacity_and_checks_its_input():
+    scn = _capsule_scene(maxgeom=5)
+    free = scn.maxgeom - scn.ngeom
+    assert render.add_centreline(scn, np.zeros((20, 3)) + np.arange(20)[:, None], 0.01) == free
+    assert scn.ngeom == scn.maxgeom
+    scn = _capsule_scene()
+    for kwargs, name in [(dict(points=np.zeros((4, 2))), "points"), (dict(points=[[0, 0, math.nan]] * 2), "points"),
+                         (dict(radius=0.0), "radius"), (dict(rgba=(1, 0, 0)), "rgba"),
+                         (dict(specular=2.0), "specular")]:
+        args = dict(points=np.zeros((3, 3)), radius=0.01)
+        args.update(kwargs)
+        with pytest.raises(ValueError, match=name):
+            render.add_centreline(scn, **args)
+
+
+def test_grid_layout_and_compose():
+    assert [(grid.grid_layout(n).rows, grid.grid_layout(n).columns) for n in (1, 4, 5, 7, 8, 9)] == \
+        [(1, 1), (1, 4), (2, 3), (2, 4), (2, 4), (3, 3)]
+    layout = grid.grid_layout(3, columns=2)
+    tiles = [np.full((4, 6, 3), 50 * (i + 1), np.uint8) for i in range(3)]
+    canvas = grid.compose(tiles, layout)
+    assert canvas.shape == (8, 12, 3)
+    assert (canvas[:4, :6] == 50).all() and (canvas[:4, 6:] == 100).all() and (canvas[4:, :6] == 150).all()
+    assert (canvas[4:, 6:] == grid.EMPTY_TILE).all()  # the unused cell
+    with pytest.raises(ValueError, match="columns"):
+        grid.grid_layout(3, columns=4)
+    with pytest.raises(ValueError, match="images"):
+        grid.compose(tiles[:2], layout)
+
+
+def test_labels_are_drawn_in_their_corner():
+    image = np.full((72, 96, 3), 128, np.uint8)
+    overlays.draw_label(image, "abc", corner="right")
+    assert (image[:, :40] == 128).all()  # the left part is untouched
+    corner = image[:12, -30:]
+    assert (corner.min(axis=-1) > 200).sum() > 5 and (corner.max(axis=-1) < 120).sum() > 20
+    with pytest.raises(ValueError, match="corner"):
+        overlays.draw_label(image, "abc", corner="middle")
 
 
 @pytest.mark.parametrize("kwargs, name", [
@@ -199,7 +294,8 @@ def test_bad_scene_model_and_path(tmp_path):
     (dict(columns=0), "columns"),
     (dict(columns=3), "columns"),
     (dict(settings={"joints": {}}), "settings"),
-    (dict(tile_width=33), "width"),
+    (dict(tile_width=33), "tile_width"),
+    (dict(tile_height=8), "tile_height"),
 ])
 def test_grid_rejects_bad_arguments(kwargs, name):
     args = dict(models=["springs", "flexrod"], seconds=0.1, tile_width=32, tile_height=32)
