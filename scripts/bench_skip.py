@@ -18,22 +18,19 @@ import mujoco
 import numpy as np
 
 import mjcable
-from mjcable.bench import scenarios, sweep
+from mjcable.bench import case, scenarios
 
 VARIANTS = ("none", "unused_floor", "contact_off")
 
 
 def _simulator(label: str, variant: str, n_segments: int, dt: float):
-    solver, fixed = sweep.MODEL_LABELS[label]
-    settings = dict(fixed)
-    if not sweep.solver_is_native(label):
-        settings.update(substeps=4, iterations=1)
+    model, settings = case.resolve(label)  # the label's fixed settings, the model's defaults otherwise
     scene = mjcable.scenes.get("hang", n_segments=n_segments, damping=scenarios.DAMPING_CATENARY)
     if variant == "unused_floor":
         scene = dataclasses.replace(scene, obstacles=(mjcable.Floor(pos=(0.0, 0.0, scenarios.UNUSED_FLOOR_HEIGHT)),))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sim = mjcable.Simulator(scene, solver, dt=dt, **settings)
+        sim = mjcable.Simulator(scene, model, dt=dt, **settings)
     if variant == "contact_off":
         sim.mj_model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     return sim
@@ -53,14 +50,14 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=2.0, help="simulated seconds per timing")
     parser.add_argument("--n-segments", type=int, default=50)
     parser.add_argument("--dt", type=float, default=0.002)
-    parser.add_argument("--models", nargs="+", default=list(sweep.MODEL_LABELS))
+    parser.add_argument("--models", nargs="+", default=list(case.MODEL_LABELS), choices=list(case.MODEL_LABELS))
     args = parser.parse_args()
     print(f"hang, n_segments={args.n_segments}, dt={args.dt}, {args.seconds} s simulated, fastest of "
           f"{args.repeats}; wall s per simulated s\n")
     print("| model | no obstacles | unused floor | collision off | no obstacles vs unused floor |")
     print("|---|---|---|---|---|")
     for label in args.models:
-        variants = VARIANTS if sweep.solver_is_native(label) else VARIANTS[:2]
+        variants = VARIANTS if case.family(label) == "native" else VARIANTS[:2]
         best = {v: np.inf for v in variants}
         for _ in range(args.repeats):
             for v in variants:

@@ -13,6 +13,7 @@ Every number is the minimum over ``--repeats`` runs (the machine may be shared);
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import time
 
@@ -21,8 +22,10 @@ import numba
 import numpy as np
 
 import mjcable
+from mjcable import catalog
 from mjcable.mjcf import proxy
-from mjcable.solvers import kernels, query_kernels
+from mjcable.solvers import kernels, query_kernels, state
+from mjcable.solvers.contacts import ObstacleContacts
 
 GRAVITY_Z = -9.81
 
@@ -71,54 +74,89 @@ def _per_call(fn, calls: int, repeats: int) -> float:
     return _best(lambda: [fn() for _ in range(calls)], repeats) / calls
 
 
-def bench_substep(repeats: int, batch: int = 2000) -> dict:
-    """One XPBD substep, 100 particles, one iteration, no contacts (the hang scene, pinned at both ends)."""
+def _xpbd_chain(scene, dt: float, **settings) -> tuple:
+    """The XPBD solver state of ``scene`` built the way the particle backend builds it: ``(chain, settings, h)``."""
+    entry = catalog.get("xpbd")
+    s = catalog.make_settings("xpbd", **settings)
+    h = dt / s.substeps
+    rules = entry.rules(scene, s, h)
+    return state.new_chain(scene, rules, s, dt), s, h
+
+
+def _simulator_step(sim, calls: int, repeats: int) -> dict:
+    """``sim.step()`` per call, and its split into the backend's contact query, solve and proxy sync per step
+    (from ``sim.diagnostics``, which accumulates them)."""
+    before, steps = sim.diagnostics, sim.steps
+    t_step = _per_call(sim.step, calls, repeats)
+    after = sim.diagnostics
+    n = sim.steps - steps
+    split = {k: (after[f"{k}_s"] - before[f"{k}_s"]) / n for k in ("query", "solve", "sync") if f"{k}_s" in after}
+    return {"step": t_step, **split}
+
+
+def bench_substep(repeats: int, batch: int = 2000, dt: float = 0.002) -> dict:
+    """One XPBD substep, 100 particles, one iteration, no contacts (the hang scene, pinned at both ends), in the
+    Gauss-Seidel order (like the minimal loop) and the direct order; and ``Simulator.step`` at one substep."""
     scene = mjcable.scenes.get("hang", n_segments=99)
-    sim = mjcable.Simulator(scene, "xpbd")  # defaults: 1 substep, 1 iteration, Gauss-Seidel
-    backend = sim._backend
+    out = {}
+    for order in ("gauss-seidel", "direct"):
+        S, _, h = _xpbd_chain(scene, dt, substeps=1, iterations=1, order=order)
+        C = state.empty_contacts()
+        kernels.run_substeps_flat(*S, *C, int(round(0.1 / h)), kernels.PHASE_ALL, 0)  # hang for 0.1 s
+        if order == "gauss-seidel":
+            x, v, w = S.x.copy(), S.v.copy(), S.w.copy()
+            x0 = x.copy()
+            rest = float(S.rest[0])
+            minimal_gauss_seidel(x, v, x0, w, rest, h, 1)
+            out["minimal"] = _best(lambda: minimal_gauss_seidel(x, v, x0, w, rest, h, batch), repeats) / batch
+            out["kernel_call"] = _per_call(lambda: kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0), 2000,
+                                           repeats)
+        out[order] = _best(lambda: kernels.run_substeps_flat(*S, *C, batch, kernels.PHASE_ALL, 0), repeats) / batch
+    sim = mjcable.Simulator(scene, "xpbd", dt=dt, substeps=1, iterations=1, order="gauss-seidel")
     sim.step(0.1)
-    S, C = backend.state, backend.contacts
-    x, v, w = S.x.copy(), S.v.copy(), S.w.copy()
-    x0 = x.copy()
-    rest, h = float(S.rest[0]), backend.h
-    minimal_gauss_seidel(x, v, x0, w, rest, h, 1)
-    kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0)
-    t_min = _best(lambda: minimal_gauss_seidel(x, v, x0, w, rest, h, batch), repeats) / batch
-    t_ours = _best(lambda: kernels.run_substeps_flat(*S, *C, batch, kernels.PHASE_ALL, 0), repeats) / batch
-    t_call = _per_call(lambda: kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0), 2000, repeats)
-    t_backend = _per_call(backend.step, 2000, repeats)
-    t_sim = _per_call(sim.step, 2000, repeats)
-    return dict(minimal=t_min, xpbd=t_ours, kernel_call=t_call, backend_step=t_backend, simulator_step=t_sim)
+    out["simulator"] = _simulator_step(sim, 2000, repeats)
+    return out
 
 
 def bench_table(repeats: int, substeps: int = 10, batch: int = 500) -> dict:
-    """The table scene at rest on the table (xpbd, 50 segments): one step's contact query and one substep's
-    projection with and without its contacts."""
+    """The table scene at rest on the table (xpbd at its defaults but ``substeps``, 50 segments): one step's
+    contact query and one substep's projection with and without its contacts, on solver state built like the
+    backend's from the settled simulator's positions and velocities; and ``Simulator.step`` split by
+    ``sim.diagnostics``."""
     scene = mjcable.scenes.get("table")
     sim = mjcable.Simulator(scene, "xpbd", substeps=substeps)
-    backend = sim._backend
     sim.step(1.5)
-    S = backend.state
-    backend._find_contacts()
-    C = backend.contacts
-    none = C._replace(seg=C.seg[:0], geo=C.geo[:0], lam=C.lam[:0])
+    S, s, h = _xpbd_chain(scene, sim.dt, **dataclasses.asdict(sim.settings))
+    np.copyto(S.x, sim.positions)
+    np.copyto(S.v, sim.velocities)
+    # the proxy (one capsule per segment) posed from the particles, and the obstacle contacts it finds
+    m = catalog.get("xpbd").build(scene, s, sim.dt).compile()
+    d = mujoco.MjData(m)
+    n = scene.cable.n_segments
+    geoms = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, proxy.segment_name(i)) for i in range(n)])
+    query_kernels.proxy_poses(S.x, d.mocap_pos[:n], d.mocap_quat[:n])
+    mujoco.mj_kinematics(m, d)
+    obstacles = ObstacleContacts(scene, m, d, geoms)
+    margin = s.contact_margin + 0.5 * 9.81 * sim.dt**2  # at rest: the margin and one step's fall
+    none = state.empty_contacts()
+    C = obstacles.query(S.x, margin, none)
     saved = [a.copy() for a in S]
 
     def restore():
         for a, b in zip(S, saved):
             a[...] = b
 
-    t_query = _per_call(backend._find_contacts, 500, repeats)
-    t_collision = _per_call(lambda: mujoco.mj_collision(backend.mj_model, backend.mj_data), 500, repeats)
+    t_query = _per_call(lambda: obstacles.query(S.x, margin, none), 500, repeats)
+    t_collision = _per_call(lambda: mujoco.mj_collision(m, d), 500, repeats)
     kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0)
     restore()
     t_with = _best(lambda: kernels.run_substeps_flat(*S, *C, batch, kernels.PHASE_ALL, 0), repeats) / batch
     restore()
     t_without = _best(lambda: kernels.run_substeps_flat(*S, *none, batch, kernels.PHASE_ALL, 0), repeats) / batch
     restore()
-    t_step = _per_call(backend.step, 500, repeats)
     return dict(contacts=len(C.seg), query=t_query, mj_collision=t_collision, substep=t_with,
-                substep_no_contacts=t_without, step=t_step, substeps=substeps)
+                substep_no_contacts=t_without, simulator=_simulator_step(sim, 500, repeats), substeps=substeps,
+                order=s.order)
 
 
 def bench_proxy(repeats: int) -> dict:
@@ -148,6 +186,12 @@ def bench_proxy(repeats: int) -> dict:
     return out
 
 
+def _print_simulator(t: dict, label: str) -> None:
+    us = 1e6
+    print(f"  {label:40s} {t['step'] * us:8.2f} µs   (backend: query {t['query'] * us:.2f}, solve "
+          f"{t['solve'] * us:.2f}, sync {t['sync'] * us:.2f} µs; the rest is the Simulator's checks)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
@@ -157,18 +201,19 @@ def main() -> None:
     s = bench_substep(args.repeats)
     print("XPBD substep, 100 particles, 1 iteration, no contacts")
     print(f"  minimal scalar numba Gauss-Seidel loop   {s['minimal'] * us:8.2f} µs")
-    print(f"  mjcable xpbd substep (in-kernel loop)   {s['xpbd'] * us:8.2f} µs   ratio {s['xpbd'] / s['minimal']:.2f}")
+    for order in ("gauss-seidel", "direct"):
+        print(f"  mjcable xpbd substep, {order:12s}      {s[order] * us:8.2f} µs   ratio {s[order] / s['minimal']:.2f}")
     print(f"  one kernel call, 1 substep               {s['kernel_call'] * us:8.2f} µs   (numba dispatch included)")
-    print(f"  backend.step (1 substep, proxy sync)     {s['backend_step'] * us:8.2f} µs")
-    print(f"  Simulator.step (plus divergence checks)  {s['simulator_step'] * us:8.2f} µs")
+    _print_simulator(s["simulator"], "Simulator.step (1 substep, Gauss-Seidel)")
     t = bench_table(args.repeats)
-    print(f"table scene, xpbd, 50 segments at rest, {t['contacts']} contacts, {t['substeps']} substeps × 1 iteration")
+    print(f"table scene, xpbd ({t['order']}), 50 segments at rest, {t['contacts']} contacts, {t['substeps']} "
+          "substeps × 1 iteration")
     print(f"  contact query per step                   {t['query'] * us:8.2f} µs   (mj_collision alone "
           f"{t['mj_collision'] * us:.2f} µs)")
     print(f"  substep with contacts                    {t['substep'] * us:8.2f} µs")
     print(f"  substep without contacts                 {t['substep_no_contacts'] * us:8.2f} µs   "
           f"(contact projection {(t['substep'] - t['substep_no_contacts']) * us:.2f} µs)")
-    print(f"  whole step (query + {t['substeps']} substeps + sync)    {t['step'] * us:8.2f} µs")
+    _print_simulator(t["simulator"], f"Simulator.step ({t['substeps']} substeps)")
     if args.proxy:
         p = bench_proxy(args.repeats)
         print("mj_collision, table scene, 100 segments")

@@ -1,17 +1,21 @@
-"""The benchmark machinery: metrics, the outcome classifier, the sweep runner (CSV, resume), plots.
+"""The benchmark machinery: metrics, the model labels, the outcome classifier, the sweep runner (CSV, resume),
+plots.
 
 No timing asserts."""
 
+import contextlib
 import csv
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 import mjcable
-from mjcable import metrics
-from mjcable.bench import plots, scenarios, sweep
-from mjcable.bench.sweep import Case
+from mjcable import catalog, metrics
+from mjcable.bench import accuracy, case, plots, results, scenarios, stress, sweep
+from mjcable.bench.case import Case
+from mjcable.bench.runner import run_case
 from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Scene, Sphere
 
 
@@ -107,7 +111,7 @@ def _inject(setup):
 def test_huge_dt_on_springs_is_classified_diverged():
     # springs keeps its explicit springs stable by softening them as h² (see build/springs.py): at a 0.5 s step
     # the cable stretches without bound, which the classifier calls diverged (runaway strain).
-    row = sweep.run_case(Case("catenary", "springs", 0.5, settings=(("substeps", 1),), params=(("duration", 2.0),)))
+    row = run_case(Case("catenary", "springs", 0.5, settings=(("substeps", 1),), params=(("duration", 2.0),)))
     assert row["outcome"] == "diverged"
     assert "strain" in row["reason"]
 
@@ -118,7 +122,7 @@ def test_energy_growth_and_silent_reset_are_classified_diverged(monkeypatch):
         sim.mj_data.qvel[2::3] = 10.0
 
     monkeypatch.setitem(scenarios.EXTRA_SCENARIOS, "injected", _inject(kick))
-    row = sweep.run_case(Case("injected", "springs", 0.002))
+    row = run_case(Case("injected", "springs", 0.002))
     assert row["outcome"] == "diverged"
     assert "energy" in row["reason"]
 
@@ -131,7 +135,7 @@ def test_energy_growth_and_silent_reset_are_classified_diverged(monkeypatch):
     scenario = scenarios.Scenario("reset", "test", scenarios.SCENARIOS["chain"].make_scene, duration=0.3,
                                   quick_duration=0.3, error_kind="none", drive=reset_later)
     monkeypatch.setitem(scenarios.EXTRA_SCENARIOS, "reset", scenario)
-    row = sweep.run_case(Case("reset", "springs", 0.002))
+    row = run_case(Case("reset", "springs", 0.002))
     assert row["outcome"] == "diverged"
     assert "silent reset" in row["reason"]
 
@@ -141,76 +145,154 @@ def test_nan_and_time_cap_are_classified_diverged(monkeypatch):
         sim.mj_data.qpos[5] = np.nan
 
     monkeypatch.setitem(scenarios.EXTRA_SCENARIOS, "injected", _inject(poison))
-    row = sweep.run_case(Case("injected", "springs", 0.002))
+    row = run_case(Case("injected", "springs", 0.002))
     assert row["outcome"] == "diverged"
-    row = sweep.run_case(Case("catenary", "springs", 0.002, time_cap=0.01))
+    row = run_case(Case("catenary", "springs", 0.002, time_cap=0.01))
     assert row["outcome"] == "diverged"
     assert "time cap" in row["reason"]
 
 
 def test_bad_settings_are_rejected_not_crashed():
-    row = sweep.run_case(Case("catenary", "springs", 0.002, settings=(("iterations", 3),)))
+    row = run_case(Case("catenary", "springs", 0.002, settings=(("iterations", 3),)))
     assert row["outcome"] == "rejected"
-    row = sweep.run_case(Case("nonexistent", "springs", 0.002))
+    row = run_case(Case("nonexistent", "springs", 0.002))
     assert row["outcome"] == "rejected"
+    row = run_case(Case("catenary", "xpbd-direct", 0.002))  # the old label: xpbd is the direct order now
+    assert row["outcome"] == "rejected" and "xpbd-gs" in row["reason"]
+
+
+def test_a_broken_model_fails_loudly():
+    # a model whose code is missing is a defect, not an outcome: run_case raises it instead of recording a row
+    with _registered("broken", backend=_missing_backend):
+        with pytest.raises(ImportError, match="not_written_yet"):
+            run_case(Case("catenary", "broken", 0.005, n_segments=4, params=(("duration", 0.01),)))
+
+
+def _missing_backend(*args, **kwargs):
+    raise ImportError("No module named 'not_written_yet'")
+
+
+# ------------------------------------------------------------------------------------------------ labels
+
+
+@contextlib.contextmanager
+def _registered(name, **fields):
+    """A copy of the xpbd entry registered as ``name`` (with ``fields`` replaced) for the block's duration."""
+    catalog.register(dataclasses.replace(catalog.get("xpbd"), name=name, **fields))
+    try:
+        yield name
+    finally:
+        catalog.unregister(name)
+
+
+def test_labels_are_the_catalogue_plus_the_gauss_seidel_variant():
+    labels = case.labels()
+    assert [m for m in labels if m in catalog.names()] == list(catalog.names())
+    assert set(labels) == set(catalog.names()) | {"xpbd-gs"}
+    assert all(labels[m] == (m, {}) for m in catalog.names())
+    assert catalog.make_settings("xpbd").order == "direct"  # so plain xpbd is the direct order ...
+    assert case.settings_of("xpbd-gs").order == "gauss-seidel"  # ... and the variant keeps Gauss-Seidel
+    assert case.family("xpbd-gs") == "particle"
+    with pytest.raises(ValueError, match="xpbd-direct"):
+        case.model_labels(["xpbd-direct"])
+    # the CSV records the order each label ran
+    assert results.empty_row(Case("catenary", "xpbd", 0.002))["order"] == "direct"
+    assert results.empty_row(Case("catenary", "xpbd-gs", 0.002))["order"] == "gauss-seidel"
+
+
+def test_settings_grids_follow_each_model_settings():
+    def grid(label):
+        return [dict(c.settings) for c in accuracy.accuracy_cases(quick=False, models=[label],
+                                                                  scenario_names=["catenary"])]
+
+    # native: substeps 1, the model's default d and 4 d (MuJoCo's step never below 5e-4 s / d)
+    d = catalog.make_settings("springs").substeps
+    springs = [c for c in accuracy.accuracy_cases(quick=False, models=["springs"], scenario_names=["catenary"])
+               if c.settings]
+    assert {dict(c.settings)["substeps"] for c in springs} == {1, d, 4 * d}
+    assert min(c.dt / dict(c.settings)["substeps"] for c in springs) >= accuracy.NATIVE_MIN_STEP / d * (1 - 1e-9)
+    # the direct order converges the stretch chain in one iteration: its grid has no more
+    assert {g["iterations"] for g in grid("xpbd") if g} == {1}
+    assert max(g["iterations"] for g in grid("xpbd-gs") if g) > 1
+    assert [c for c in accuracy.convergence_cases(models=["xpbd"])][0].settings == (("iterations", 1),
+                                                                                    ("substeps", 4))
+    # quick and stress runs take every model's defaults
+    assert all(c.settings == () for c in accuracy.accuracy_cases(quick=True) + stress.stress_cases(quick=True))
+
+
+def test_a_registered_model_is_benchmarked_like_the_others():
+    with _registered("throwaway"):
+        assert "throwaway" in case.MODEL_LABELS and "throwaway" in case.model_labels(None)
+        assert {"throwaway"} <= {c.model for c in accuracy.accuracy_cases(quick=True)}
+        assert {"throwaway"} <= {c.model for c in stress.stress_cases(quick=True)}
+        assert {"throwaway"} <= {c.model for c in accuracy.stiffness_cases()}  # a particle model
+        variants = {dict(c.params)["variant"] for c in accuracy.skip_cases(models=["throwaway"])}
+        assert variants == {"none", "unused_floor"}  # MuJoCo's contact switch is for native models only
+        row = run_case(Case("catenary", "throwaway", 0.005, n_segments=8, params=(("duration", 0.1),)))
+        assert row["outcome"] == "stable", row["reason"]
+        assert row["solver"] == "throwaway" and row["substeps"] == catalog.make_settings("xpbd").substeps
+        assert row["error"] < 0.05  # the start shape already lies near the catenary
+    assert "throwaway" not in case.MODEL_LABELS
 
 
 # ------------------------------------------------------------------------------------------------ sweep
 
-def _tiny_cases():
+def _tiny_cases(labels=None):
     return [Case("catenary", label, 0.005, n_segments=8, params=(("duration", 0.05),),
-                 settings=() if sweep.solver_is_native(label) else (("iterations", 2), ("substeps", 1)))
-            for label in sweep.MODEL_LABELS]
+                 settings=() if case.family(label) == "native" else (("iterations", 2), ("substeps", 1)))
+            for label in labels or case.MODEL_LABELS]
 
 
 def test_sweep_writes_csv_and_resumes(tmp_path):
     path = tmp_path / "out" / "bench.csv"
     rows = sweep.run_sweep(_tiny_cases(), path, jobs=1, progress=False)
-    assert len(rows) == len(sweep.MODEL_LABELS)
+    assert len(rows) == len(case.MODEL_LABELS)
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
-        assert reader.fieldnames == sweep.COLUMNS
+        assert reader.fieldnames == results.COLUMNS
         written = list(reader)
-    assert {r["model"] for r in written} == set(sweep.MODEL_LABELS)
+    assert {r["model"] for r in written} == set(case.MODEL_LABELS)
     assert {r["scenario"] for r in written} == {"catenary"}
     for r in written:
-        assert r["outcome"] in sweep.OUTCOMES, r
+        assert r["outcome"] == "stable", r  # 0.05 s of a cable hanging near its rest shape
     springs = next(r for r in written if r["model"] == "springs")
-    assert springs["outcome"] == "stable"
     assert float(springs["error"]) < 0.05  # the start shape already lies near the catenary
     assert float(springs["sim_time"]) == pytest.approx(0.05)
 
-    # Resume: nothing to do; after losing the last row, only that run again.
-    rerun = sweep.run_sweep(_tiny_cases(), path, jobs=1, progress=False)
-    assert len(rerun) == sum(r["outcome"] == "unavailable" for r in written)  # only unavailable models again
+    # Resume: nothing to do; after losing the last row, only that run again; a row with an outcome this version
+    # does not write (an older version's "unavailable") is run again too.
+    assert sweep.run_sweep(_tiny_cases(), path, jobs=1, progress=False) == []
     lines = path.read_text().splitlines()
     path.write_text("\n".join(lines[:-1]) + "\n")
     again = sweep.run_sweep(_tiny_cases(), path, jobs=1, progress=False)
-    assert len(again) >= 1
-    assert len(sweep.latest_rows(sweep.read_rows(path))) == len(sweep.MODEL_LABELS)
+    assert [r["key"] for r in again] == [written[-1]["key"]]
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(lines[:-1] + [lines[-1].replace(",stable,", ",unavailable,")]) + "\n")
+    assert len(sweep.run_sweep(_tiny_cases(), path, jobs=1, progress=False)) == 1
+    assert len(results.latest_rows(results.read_rows(path))) == len(case.MODEL_LABELS)
 
 
-def test_sweep_in_worker_processes(tmp_path):
+def test_sweep_in_worker_processes_knows_a_model_registered_here(tmp_path):
     path = tmp_path / "bench.csv"
-    cases = [c for c in _tiny_cases() if c.model in ("springs", "xpbd")]
-    rows = sweep.run_sweep(cases, path, jobs=2, progress=False)
-    assert sorted(r["model"] for r in rows) == ["springs", "xpbd"]
-    assert all(r["outcome"] in sweep.OUTCOMES for r in rows)
+    with _registered("throwaway"):
+        rows = sweep.run_sweep(_tiny_cases(["springs", "throwaway"]), path, jobs=2, progress=False)
+    assert sorted(r["model"] for r in rows) == ["springs", "throwaway"]
+    assert all(r["outcome"] == "stable" for r in rows), rows
 
 
-def test_stress_load_scenario_adds_the_mass():
-    row = sweep.run_case(Case("load", "springs", 0.002, params=(("duration", 0.02), ("load", 10.0))))
-    assert row["outcome"] in ("stable", "diverged", "tunneled")
+@pytest.mark.parametrize("model", ["springs", "xpbd"])
+def test_stress_load_scenario_adds_the_mass_at_the_end(model):
+    load = 10.0
     scene = scenarios.hanging_scene(10)
-    sim = mjcable.Simulator(scene, "springs", dt=0.002)
-    import mujoco
-
-    body = sim.mj_model.site_bodyid[mujoco.mj_name2id(sim.mj_model, mujoco.mjtObj.mjOBJ_SITE, "particle10")]
-    before = float(sim.mj_model.body_mass[body])
+    sim = mjcable.Simulator(scene, model, dt=0.002)
     start = sim.positions
-    scenarios.attach_end_load(sim, 0.5)
-    assert sim.mj_model.body_mass[body] == pytest.approx(before + 0.5)
+    scenarios.STRESS_SCENARIOS["load"].setup(sim, {"load": load})
+    added = sim.particle_masses - scene.cable.particle_masses
+    assert added[-1] == pytest.approx(load * scene.cable.mass)
+    assert added[:-1] == pytest.approx(0.0)
     assert sim.positions == pytest.approx(start)
+    row = run_case(Case("load", model, 0.002, n_segments=10, params=(("duration", 0.02), ("load", load))))
+    assert row["outcome"] == "stable", row["reason"]
 
 
 # ------------------------------------------------------------------------------------------------ plots

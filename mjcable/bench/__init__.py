@@ -1,5 +1,10 @@
 """Head-to-head benchmarks and stress tests of the cable models.
 
+Modules: :mod:`~mjcable.bench.case` (a run and the model labels), :mod:`~mjcable.bench.runner` (running one),
+:mod:`~mjcable.bench.outcome` (how it ended), :mod:`~mjcable.bench.results` (the CSV), :mod:`~mjcable.bench.sweep`
+(many runs, resumable), :mod:`~mjcable.bench.scenarios`, :mod:`~mjcable.bench.accuracy` (``bench``),
+:mod:`~mjcable.bench.stress` (``stress``) and :mod:`~mjcable.bench.plots`.
+
 ``mjcable bench`` (:func:`cli_bench`) runs every model on the accuracy scenarios and writes a CSV, work-precision
 plots and Pareto tables; ``mjcable stress`` (:func:`cli_stress`) maps where each model diverges or tunnels.
 ``python -m mjcable.bench [bench|stress] [--quick] [--out DIR] [--jobs N]`` runs either without the CLI.
@@ -17,7 +22,11 @@ from typing import Optional, Sequence
 
 from mjcable.bench.accuracy import cli_bench, run_bench
 from mjcable.bench.stress import cli_stress, run_stress
-from mjcable.bench.sweep import MODEL_LABELS, OUTCOMES, Case, read_rows, run_case, run_sweep
+from mjcable.bench.case import MODEL_LABELS, Case
+from mjcable.bench.outcome import OUTCOMES
+from mjcable.bench.results import read_rows
+from mjcable.bench.runner import run_case
+from mjcable.bench.sweep import run_sweep
 
 __all__ = [
     "cli_bench",
@@ -41,7 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default=None, help="output folder (default bench_out / stress_out)")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPU count)")
     parser.add_argument("--models", nargs="+", default=None, choices=list(MODEL_LABELS),
-                        help="model labels to run (default all)")
+                        help="model labels to run (default all): every catalogue model, plus "
+                             + ", ".join(f"{k} ({m} with {s})" for k, (m, s) in MODEL_LABELS.items() if s))
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

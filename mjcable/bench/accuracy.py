@@ -3,13 +3,13 @@ convergence of the contact scenes' references; CSV, work-precision PNGs and Mark
 
 Outputs in ``--out`` (default ``bench_out``):
 
-* ``bench.csv``: one row per run (columns :data:`mjcable.bench.sweep.COLUMNS`), appended as runs finish; a
+* ``bench.csv``: one row per run (columns :data:`mjcable.bench.results.COLUMNS`), appended as runs finish; a
   re-run resumes by skipping the runs already there;
 * ``work_precision_<scenario>.png``: error against wall time per simulated second, one line per model;
 * ``pareto.md``: each model's Pareto front per scenario, the stiffness-effect table, the skip rows, the
   convergence table and every failed run's reason;
 * ``stiffness_grid.png``: the thesis's stiffness-effect grid (iterations {1, 12, 25} × dt {0.02, 0.002, 0.0002})
-  for ``jakobsen``, ``pbd``, ``xpbd`` and ``xpbd-direct``: the cable's shape at t = 0.25 s.
+  for every particle model's label: the cable's shape at t = 0.25 s.
 """
 
 from __future__ import annotations
@@ -18,18 +18,19 @@ import itertools
 import json
 import math
 import os
+import platform
 import time
 from typing import List, Optional, Sequence
 
 import numpy as np
 
 from mjcable import reference
-from mjcable.bench import plots, scenarios, sweep
-from mjcable.bench.sweep import Case
+from mjcable.bench import case as case_mod
+from mjcable.bench import plots, results, scenarios, sweep
+from mjcable.bench.case import Case
+from mjcable.bench.outcome import OUTCOMES
 
 __all__ = [
-    "NATIVE_LABELS",
-    "PARTICLE_LABELS",
     "STIFFNESS_ITERATIONS",
     "STIFFNESS_DTS",
     "accuracy_cases",
@@ -37,23 +38,20 @@ __all__ = [
     "skip_cases",
     "convergence_cases",
     "run_bench",
+    "write_reports",
     "cli_bench",
 ]
 
-NATIVE_LABELS = ("springs", "joints", "composite", "flexrod")
-PARTICLE_LABELS = ("jakobsen", "pbd", "xpbd", "xpbd-direct")
 QUICK_SCENARIOS = ("catenary", "chain", "table")
-STIFFNESS_LABELS = ("jakobsen", "pbd", "xpbd", "xpbd-direct")
 STIFFNESS_ITERATIONS = (1, 12, 25)
 STIFFNESS_DTS = (0.02, 0.002, 0.0002)
 FULL_DTS_NATIVE = (0.01, 0.005, 0.002, 0.001, 0.0005)
 FULL_DTS_PARTICLE = (0.01, 0.005, 0.002, 0.001)
 QUICK_DTS = (0.005, 0.002)
-NATIVE_SUBSTEPS = {"springs": (1, 10, 40), "joints": (1, 4), "composite": (1, 4), "flexrod": (1, 4)}
-NATIVE_MIN_STEP = {"springs": 5e-5, "joints": 5e-4, "composite": 5e-4, "flexrod": 5e-4}  # s: finest MuJoCo step swept
+NATIVE_SUBSTEP_FACTOR = 4  # native models: substeps 1, the default d and 4 d
+NATIVE_MIN_STEP = 5e-4  # s: finest MuJoCo step swept at one default substep (d substeps: NATIVE_MIN_STEP / d)
 PARTICLE_SETTINGS = ((1, 1), (1, 4), (1, 16), (4, 1), (4, 4), (16, 1))  # (substeps, iterations)
 DIRECT_SETTINGS = ((1, 1), (4, 1), (16, 1))  # the direct order converges the stretch chain in one iteration
-QUICK_PARTICLE_SETTING = (4, 1)
 SEGMENT_COUNTS = (20, 100)  # besides the default 50, at dt = 0.002 with the default settings
 CONVERGENCE_SCENARIOS = ("table", "drape")
 SET_ERROR_SCENARIOS = ("drape",)  # errors measured to a curve, not particle by particle
@@ -63,32 +61,36 @@ TIME_CAP_QUICK = 40.0
 _AT_REFERENCE = 1e-9  # m: errors this small are round-off, not a convergence question
 
 
-def _native(model: str, dt: float, substeps: Optional[int] = None, **kw) -> dict:
-    return dict(model=model, dt=dt, settings=(("substeps", substeps),) if substeps else (), **kw)
+def _particle(iterations: int, substeps: int) -> tuple:
+    return (("iterations", iterations), ("substeps", substeps))
 
 
-def _particle(model: str, dt: float, substeps: int, iterations: int, **kw) -> dict:
-    return dict(model=model, dt=dt, settings=(("iterations", iterations), ("substeps", substeps)), **kw)
+def _direct(label: str) -> bool:
+    """Whether ``label`` runs the direct order (which converges the stretch chain in one iteration)."""
+    return getattr(case_mod.settings_of(label), "order", None) == "direct"
 
 
-def _settings_grid(model: str, quick: bool) -> List[dict]:
-    """The (dt, settings) points of one model's sweep."""
-    if model in NATIVE_LABELS:
-        if quick:
-            return [_native(model, dt) for dt in QUICK_DTS]
-        return [_native(model, dt, s) for dt in FULL_DTS_NATIVE for s in NATIVE_SUBSTEPS[model]
-                if s == 1 or dt / s >= NATIVE_MIN_STEP[model] * (1 - 1e-9)]
+def _settings_grid(label: str, quick: bool) -> List[tuple]:
+    """The ``(dt, settings)`` points of one label's sweep: ``--quick``, its defaults at :data:`QUICK_DTS`; else,
+    native models substeps 1, d and 4 d (d: the default; MuJoCo's step no finer than :data:`NATIVE_MIN_STEP` / d),
+    particle models the (substeps, iterations) grid (:data:`DIRECT_SETTINGS` for the direct order)."""
     if quick:
-        return [_particle(model, dt, *QUICK_PARTICLE_SETTING) for dt in QUICK_DTS]
-    grid = DIRECT_SETTINGS if model == "xpbd-direct" else PARTICLE_SETTINGS
-    return [_particle(model, dt, s, i) for dt in FULL_DTS_PARTICLE for s, i in grid]
+        return [(dt, ()) for dt in QUICK_DTS]
+    if case_mod.family(label) == "native":
+        default = int(getattr(case_mod.settings_of(label), "substeps", 1))
+        finest = NATIVE_MIN_STEP / default * (1 - 1e-9)
+        substeps = sorted({1, default, NATIVE_SUBSTEP_FACTOR * default})
+        return [(dt, (("substeps", s),)) for dt in FULL_DTS_NATIVE for s in substeps if s == 1 or dt / s >= finest]
+    grid = DIRECT_SETTINGS if _direct(label) else PARTICLE_SETTINGS
+    return [(dt, _particle(i, s)) for dt in FULL_DTS_PARTICLE for s, i in grid]
 
 
-def accuracy_cases(*, quick: bool, models: Sequence[str] = tuple(sweep.MODEL_LABELS),
+def accuracy_cases(*, quick: bool, models: Optional[Sequence[str]] = None,
                    scenario_names: Optional[Sequence[str]] = None) -> List[Case]:
-    """The accuracy sweep: each scenario × model × (dt, settings), plus n_segments ∈ :data:`SEGMENT_COUNTS` at
-    dt = 0.002 (full sweep). ``--quick``: two dts per model on ``catenary``, ``chain`` and ``table`` and one run
-    on ``cantilever`` and ``drape``."""
+    """The accuracy sweep: each scenario × model label (default all) × (dt, settings), plus n_segments ∈
+    :data:`SEGMENT_COUNTS` at dt = 0.002 with the defaults (full sweep). ``--quick``: two dts per label at its
+    defaults on ``catenary``, ``chain`` and ``table`` and one run on ``cantilever`` and ``drape``."""
+    models = case_mod.model_labels(models)
     cap = TIME_CAP_QUICK if quick else TIME_CAP_BENCH
     names = scenario_names or tuple(scenarios.SCENARIOS)
     cases = []
@@ -97,43 +99,42 @@ def accuracy_cases(*, quick: bool, models: Sequence[str] = tuple(sweep.MODEL_LAB
             grid = _settings_grid(model, quick)
             if quick and name not in QUICK_SCENARIOS:
                 grid = grid[-1:]
-            for g in grid:
-                cases.append(Case(name, g["model"], g["dt"], settings=g["settings"], quick=quick, time_cap=cap))
+            for dt, settings in grid:
+                cases.append(Case(name, model, dt, settings=settings, quick=quick, time_cap=cap))
             if not quick:
-                default = _native(model, 0.002) if model in NATIVE_LABELS else _particle(model, 0.002, 4, 1)
                 for n in SEGMENT_COUNTS:
-                    cases.append(Case(name, model, 0.002, n_segments=n, settings=default["settings"], time_cap=cap))
+                    cases.append(Case(name, model, 0.002, n_segments=n, time_cap=cap))
     return cases
 
 
-def stiffness_cases(*, models: Sequence[str] = STIFFNESS_LABELS) -> List[Case]:
-    """The thesis's stiffness-effect grid (§3.4.3): iterations × dt, one substep, the shape at t = 0.25 s."""
-    return [Case("swing", m, dt, settings=(("iterations", it), ("substeps", 1)), params=(("save_positions", 1),),
-                 time_cap=TIME_CAP_BENCH)
-            for m in models if m in sweep.MODEL_LABELS for dt in STIFFNESS_DTS for it in STIFFNESS_ITERATIONS]
+def stiffness_cases(*, models: Optional[Sequence[str]] = None) -> List[Case]:
+    """The thesis's stiffness-effect grid (§3.4.3) of the particle models among ``models`` (default all labels):
+    iterations × dt, one substep, the shape at t = 0.25 s."""
+    return [Case("swing", m, dt, settings=_particle(it, 1), params=(("save_positions", 1),), time_cap=TIME_CAP_BENCH)
+            for m in case_mod.model_labels(models) if case_mod.family(m) == "particle"
+            for dt in STIFFNESS_DTS for it in STIFFNESS_ITERATIONS]
 
 
-def skip_cases(*, models: Sequence[str] = tuple(sweep.MODEL_LABELS), repeats: int = 1) -> List[Case]:
-    """Hang without obstacles, with an unused floor, and (native) with MuJoCo's collision disabled."""
+def skip_cases(*, models: Optional[Sequence[str]] = None, repeats: int = 1) -> List[Case]:
+    """Hang without obstacles, with an unused floor, and (native models) with MuJoCo's collision disabled."""
     out = []
-    for model in models:
-        variants = ["none", "unused_floor"] + (["contact_off"] if model in NATIVE_LABELS else [])
+    for model in case_mod.model_labels(models):
+        variants = ["none", "unused_floor"] + (["contact_off"] if case_mod.family(model) == "native" else [])
         for variant, rep in itertools.product(variants, range(repeats)):
             out.append(Case("skip", model, 0.002, params=(("repeat", rep), ("variant", variant)),
                             time_cap=TIME_CAP_BENCH))
     return out
 
 
-def convergence_cases(*, models: Sequence[str] = tuple(sweep.MODEL_LABELS), quick: bool = False) -> List[Case]:
-    """Each model's finest setting on the contact scenes at dt and dt / 2, keeping final positions."""
+def convergence_cases(*, models: Optional[Sequence[str]] = None, quick: bool = False) -> List[Case]:
+    """Each label's finest setting on the contact scenes at dt and dt / 2, keeping final positions: native models
+    at their defaults (joints and composite cost ~1 ms per MuJoCo step), particle models 4 substeps × 4 iterations
+    (× 1 in the direct order)."""
     out = []
-    for model, name in itertools.product(models, CONVERGENCE_SCENARIOS):
+    for model, name in itertools.product(case_mod.model_labels(models), CONVERGENCE_SCENARIOS):
+        settings = () if case_mod.family(model) == "native" else _particle(1 if _direct(model) else 4, 4)
         for dt in (CONVERGENCE_DT, CONVERGENCE_DT / 2):
-            if model in NATIVE_LABELS:
-                g = _native(model, dt)  # default substeps: joints and composite cost ~1 ms per MuJoCo step
-            else:
-                g = _particle(model, dt, 4, 1 if model == "xpbd-direct" else 4)
-            out.append(Case(name, model, dt, settings=g["settings"], params=(("save_positions", 1),), quick=quick,
+            out.append(Case(name, model, dt, settings=settings, params=(("save_positions", 1),), quick=quick,
                             time_cap=TIME_CAP_BENCH))
     return out
 
@@ -142,7 +143,8 @@ def _convergence_markdown(rows: Sequence[dict], csv_path: str) -> str:
     lines = ["| scenario | model | settings | error at dt (m) | error at dt/2 (m) | RMS change dt → dt/2 (m) | "
              "converged (change < error) |", "|---|---|---|---|---|---|---|"]
     by_key = {r["key"]: r for r in rows}
-    for c in convergence_cases(models=sorted({r["model"] for r in rows}, key=_model_rank)):
+    known = [m for m in sorted({r["model"] for r in rows}, key=case_mod.rank) if m in case_mod.MODEL_LABELS]
+    for c in convergence_cases(models=known):
         if c.dt != CONVERGENCE_DT:
             continue
         fine = Case(c.scenario, c.model, c.dt / 2, settings=c.settings, params=c.params, quick=c.quick)
@@ -152,7 +154,7 @@ def _convergence_markdown(rows: Sequence[dict], csv_path: str) -> str:
         if a["outcome"] != "stable" or b["outcome"] != "stable":
             lines.append(f"| {c.scenario} | {c.model} | {dict(c.settings)} | {a['outcome']} | {b['outcome']} | | |")
             continue
-        pa, pb = sweep.positions_path(csv_path, a["key"]), sweep.positions_path(csv_path, b["key"])
+        pa, pb = results.positions_path(csv_path, a["key"]), results.positions_path(csv_path, b["key"])
         if not (os.path.exists(pa) and os.path.exists(pb)):
             continue
         xa, xb = np.load(pa), np.load(pb)
@@ -169,15 +171,10 @@ def _convergence_markdown(rows: Sequence[dict], csv_path: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _model_rank(model: str) -> int:
-    labels = list(sweep.MODEL_LABELS)
-    return labels.index(model) if model in labels else len(labels)
-
-
 def _skip_markdown(rows: Sequence[dict]) -> str:
     lines = ["| model | no obstacles (s/s) | unused floor (s/s) | collision off (s/s) | saving of no obstacles vs "
              "unused floor |", "|---|---|---|---|---|"]
-    for model in sorted({r["model"] for r in rows}, key=_model_rank):
+    for model in sorted({r["model"] for r in rows}, key=case_mod.rank):
         cost = {}
         for variant in ("none", "unused_floor", "contact_off"):
             values = [r["wall_per_sim_s"] for r in rows if r["model"] == model and r["outcome"] == "stable"
@@ -198,7 +195,7 @@ def run_bench(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[
       out: output folder (created).
       quick: the reduced sweep.
       jobs: worker processes.
-      models: model labels (default all of :data:`mjcable.bench.sweep.MODEL_LABELS`).
+      models: model labels (default all of :data:`mjcable.bench.case.MODEL_LABELS`).
       scenario_names: accuracy scenarios (default all; ``--quick``: all, with one run on the two not in
         :data:`QUICK_SCENARIOS`).
       progress: tqdm progress bars.
@@ -207,12 +204,12 @@ def run_bench(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[
     Returns:
       The latest row per run of ``bench.csv``.
     """
-    models = sweep.model_labels(models)
+    models = case_mod.model_labels(models)
     os.makedirs(out, exist_ok=True)
     csv_path = os.path.join(out, "bench.csv")
     cases = accuracy_cases(quick=quick, models=models, scenario_names=scenario_names)
     if extras:
-        cases += stiffness_cases(models=[m for m in STIFFNESS_LABELS if m in models])
+        cases += stiffness_cases(models=models)
         cases += skip_cases(models=models, repeats=2 if quick else 3)
         if not quick:
             cases += convergence_cases(models=models)
@@ -220,10 +217,9 @@ def run_bench(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[
     sweep.run_sweep(cases, csv_path, jobs=jobs, desc="bench", progress=progress)
     # A folder may hold other sweeps (quick and full keys differ): report the runs of this one.
     keys = {c.key for c in cases}
-    rows = [r for r in sweep.latest_rows(sweep.read_rows(csv_path)) if r["key"] in keys]
+    rows = [r for r in results.latest_rows(results.read_rows(csv_path)) if r["key"] in keys]
     write_reports(rows, out, csv_path=csv_path, wall=time.perf_counter() - start, jobs=jobs, quick=quick)
     return rows
-
 
 
 def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float = math.nan, jobs: int = 1,
@@ -235,20 +231,18 @@ def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float 
         plots.work_precision(accuracy, name, os.path.join(out, f"work_precision_{name}.png"))
     swing = [r for r in rows if r["scenario"] == "swing"]
     if swing:
-        results, start = {}, scenarios.swing_scene(50).cable.particles
+        shapes, start = {}, scenarios.swing_scene(50).cable.particles
         for r in swing:
-            p = sweep.positions_path(csv_path, r["key"])
+            p = results.positions_path(csv_path, r["key"])
             x = np.load(p) if (r["outcome"] == "stable" and os.path.exists(p)) else None
-            results.setdefault(r["model"], {})[(int(r["iterations"]), float(r["dt"]))] = x
-        order = sorted(results, key=_model_rank)
-        plots.stiffness_grid_png({m: results[m] for m in order}, os.path.join(out, "stiffness_grid.png"),
+            shapes.setdefault(r["model"], {})[(int(r["iterations"]), float(r["dt"]))] = x
+        order = sorted(shapes, key=case_mod.rank)
+        plots.stiffness_grid_png({m: shapes[m] for m in order}, os.path.join(out, "stiffness_grid.png"),
                                  iterations=STIFFNESS_ITERATIONS, dts=STIFFNESS_DTS, start=np.asarray(start),
                                  time=scenarios.SWING_TIME)
     skip = [r for r in rows if r["scenario"] == "skip"]
     conv = [r for r in rows if json.loads(r.get("params") or "{}").get("save_positions")
             and r["scenario"] in CONVERGENCE_SCENARIOS]
-    import platform
-
     md = [f"# mjcable bench{' --quick' if quick else ''}\n",
           f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor() or platform.platform()}; "
           f"{jobs} worker process(es); {len(rows)} runs in the CSV"
@@ -289,7 +283,7 @@ def cli_bench(args) -> int:
     jobs = getattr(args, "jobs", None) or sweep.default_jobs()
     rows = run_bench(out, quick=bool(getattr(args, "quick", False)), jobs=int(jobs),
                      models=getattr(args, "models", None), scenario_names=getattr(args, "scenarios", None))
-    counts = {o: sum(r["outcome"] == o for r in rows) for o in sweep.OUTCOMES}
+    counts = {o: sum(r["outcome"] == o for r in rows) for o in OUTCOMES}
     print(f"wrote {os.path.join(out, 'bench.csv')} ({len(rows)} runs: "
           + ", ".join(f"{v} {k}" for k, v in counts.items() if v) + f"), {os.path.join(out, 'pareto.md')} and PNGs")
     return 0

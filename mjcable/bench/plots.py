@@ -1,6 +1,6 @@
 """Plots and tables of sweep results: work-precision plots, Pareto fronts, the stiffness-effect grid, stability maps.
 
-All functions take rows as :func:`mjcable.bench.sweep.read_rows` returns them and write PNG (matplotlib, Agg) or
+All functions take rows as :func:`mjcable.bench.results.read_rows` returns them and write PNG (matplotlib, Agg) or
 return Markdown.
 """
 
@@ -11,6 +11,9 @@ import math
 from typing import Dict, Iterable, List, Optional, Sequence
 
 import numpy as np
+
+from mjcable.bench import case as case_mod
+from mjcable.bench.outcome import OUTCOMES
 
 __all__ = [
     "pareto_front",
@@ -23,15 +26,9 @@ __all__ = [
     "OUTCOME_COLORS",
 ]
 
-OUTCOME_COLORS = {
-    "stable": "#3a9d4a",
-    "tunneled": "#e0a030",
-    "diverged": "#d03c30",
-    "rejected": "#9a9a9a",
-    "unavailable": "#e8e8e8",
-}
-_MODEL_ORDER = ("springs", "joints", "composite", "flexrod", "jakobsen", "pbd", "xpbd", "xpbd-direct")
-_MARKERS = dict(zip(_MODEL_ORDER, "osD^vP*X"))
+_COLORS = {"stable": "#3a9d4a", "tunneled": "#e0a030", "diverged": "#d03c30", "rejected": "#9a9a9a"}
+OUTCOME_COLORS = {o: _COLORS[o] for o in OUTCOMES}  # a new outcome without a colour fails here, at import
+_MARKERS = "osD^vP*Xph"  # one per model label, in label order (mjcable.bench.case.labels)
 _DPI = 110
 
 
@@ -54,8 +51,14 @@ def _usable(rows: Iterable[dict]) -> List[dict]:
 
 
 def _models(rows: Iterable[dict]) -> List[str]:
-    present = {r["model"] for r in rows}
-    return [m for m in _MODEL_ORDER if m in present] + sorted(present - set(_MODEL_ORDER))
+    """The model labels of ``rows`` in label order (labels no longer registered last, by name)."""
+    return sorted({r["model"] for r in rows}, key=lambda m: (case_mod.rank(m), m))
+
+
+def _style(model: str, plt) -> tuple:
+    """``(colour, marker)`` of a model label, the same in every plot."""
+    rank = case_mod.rank(model)
+    return plt.get_cmap("tab10")(rank % 10), _MARKERS[rank % len(_MARKERS)]
 
 
 def pareto_front(rows: Iterable[dict]) -> List[dict]:
@@ -92,16 +95,14 @@ def work_precision(rows: Sequence[dict], scenario: str, path: str, *, title: Opt
         return False
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7.5, 5.0))
-    cmap = plt.get_cmap("tab10")
-    for k, model in enumerate(_models(usable)):
+    for model in _models(usable):
         mine = [r for r in usable if r["model"] == model]
-        rank = _MODEL_ORDER.index(model) if model in _MODEL_ORDER else len(_MODEL_ORDER) + k
-        color = cmap(rank % 10)  # one colour per model across every plot
+        color, marker = _style(model, plt)
         ax.scatter([r["wall_per_sim_s"] for r in mine], [max(r["error"], 1e-16) for r in mine], s=14,
-                   color=color, alpha=0.3, marker=_MARKERS.get(model, "o"))
+                   color=color, alpha=0.3, marker=marker)
         front = pareto_front(mine)
         ax.plot([r["wall_per_sim_s"] for r in front], [max(r["error"], 1e-16) for r in front], "-",
-                marker=_MARKERS.get(model, "o"), color=color, label=model, markersize=5)
+                marker=marker, color=color, label=model, markersize=5)
     ax.set_xscale("log")
     ax.set_yscale("log")
     kind = rows[0].get("error_kind", "")

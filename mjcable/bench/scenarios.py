@@ -29,6 +29,7 @@ import dataclasses
 import math
 from typing import Callable, Dict, Optional
 
+import mujoco
 import numpy as np
 from scipy import optimize
 
@@ -40,7 +41,6 @@ __all__ = [
     "SCENARIOS",
     "STRESS_SCENARIOS",
     "EXTRA_SCENARIOS",
-    "attach_end_load",
     "get",
     "chain_scene",
     "cantilever_scene",
@@ -265,43 +265,9 @@ def _yank(sim, t: float, params: dict) -> None:
     sim.move_gripper(0, start + travelled * YANK_DIRECTION)
 
 
-def attach_end_load(sim, mass: float) -> None:
-    """Add ``mass`` kg to the last particle (the ``load`` stress scenario).
-
-    Native models: the body carrying site ``particle{n}`` gets the mass (inertia scaled alike) and
-    ``mj_setConst`` refreshes the derived constants. Particle solvers: the backend's inverse-mass array
-    (``inv_mass`` or ``w`` on the backend or its ``state``).
-    """
-    import mujoco
-
-    n = sim.scene.cable.n_segments
-    backend = sim._backend  # noqa: SLF001 - the bench reaches into the backend on purpose, for the load only
-    if sim.model in ("springs", "joints", "composite", "flexrod"):
-        m, d = sim.mj_model, sim.mj_data
-        site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"particle{n}")
-        body = int(m.site_bodyid[site])
-        old = float(m.body_mass[body])
-        m.body_mass[body] = old + mass
-        if old > 0:
-            m.body_inertia[body] *= (old + mass) / old
-        state = [a.copy() for a in (d.qpos, d.qvel, d.act, d.mocap_pos, d.mocap_quat)]
-        mujoco.mj_setConst(m, d)  # uses d as scratch at qpos0: put the state back
-        for dst, src in zip((d.qpos, d.qvel, d.act, d.mocap_pos, d.mocap_quat), state):
-            dst[:] = src
-        mujoco.mj_forward(m, d)
-        return
-    for holder in (backend, getattr(backend, "state", None)):
-        for name in ("inv_mass", "w"):
-            inv = getattr(holder, name, None)
-            if isinstance(inv, np.ndarray) and inv.shape == (n + 1,):
-                if inv[n] > 0:
-                    inv[n] = 1.0 / (1.0 / inv[n] + mass)
-                return
-    raise NotImplementedError(f"model {sim.model!r} exposes no inverse-mass array for an end load")
-
-
 def _load_setup(sim, params: dict) -> None:
-    attach_end_load(sim, float(params["load"]) * sim.scene.cable.mass)
+    """The ``load`` scenario's end mass: ``load`` times the cable's mass, a point mass at the last particle."""
+    sim.add_point_mass(-1, float(params["load"]) * sim.scene.cable.mass)
 
 
 def _skip_scene(n_segments: int, params: dict) -> Scene:
@@ -316,10 +282,9 @@ def _skip_setup(sim, params: dict) -> None:
     contacts can save."""
     if params.get("variant") != "contact_off":
         return
-    import mujoco
-
-    if sim.model not in ("springs", "joints", "composite", "flexrod"):
-        raise NotImplementedError("the contact_off variant applies to MuJoCo's native models only")
+    if sim.family != "native":
+        raise ValueError(f"variant 'contact_off' applies to MuJoCo's native models only, got model {sim.model!r} "
+                         f"of family {sim.family!r}")
     sim.mj_model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
 
 

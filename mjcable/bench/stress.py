@@ -1,6 +1,6 @@
 """``mjcable stress``: where each model breaks. Sweeps axial stiffness (to 1e9 N), dt (to 50 ms), n_segments (to
 500), a gripper's speed (to 20 m/s) and a heavy end load on a light cable; every run gets an ``outcome``
-(``stable``, ``diverged``, ``tunneled``; see :mod:`mjcable.bench.sweep`).
+(``stable``, ``diverged``, ``tunneled``; see :mod:`mjcable.bench.outcome`).
 
 Outputs in ``--out`` (default ``stress_out``): ``stress.csv`` (one row per run, resumable),
 ``stability_<model>.png`` (per model: each family's parameter against dt, coloured by outcome) and ``stress.md``
@@ -10,16 +10,18 @@ Outputs in ``--out`` (default ``stress_out``): ``stress.csv`` (one row per run, 
 from __future__ import annotations
 
 import os
+import platform
 import time
 from typing import List, Optional, Sequence
 
-from mjcable.bench import plots, sweep
-from mjcable.bench.accuracy import NATIVE_LABELS
-from mjcable.bench.sweep import Case
+from mjcable.bench import case as case_mod
+from mjcable.bench import plots, results, sweep
+from mjcable.bench.case import Case
+from mjcable.bench.outcome import OUTCOMES
 
 __all__ = ["FAMILIES", "QUICK_FAMILIES", "stress_cases", "run_stress", "cli_stress"]
 
-# family → (parameter, full values, quick values); n_segments is the "segments" family's parameter.
+# family → (parameter, full values); n_segments is the "segments" family's parameter. Quick values below.
 FAMILIES = {
     "stiffness": ("stiffness", (1e2, 1e4, 1e6, 1e9)),
     "bending": ("young", (1e5, 1e7, 1e9, 1e11)),
@@ -40,27 +42,19 @@ TIME_CAP_FULL = 120.0  # s wall time per run
 TIME_CAP_QUICK = 25.0
 
 
-def _default_settings(model: str) -> tuple:
-    """Each model at its defaults (natives: their default substeps; particle solvers: 4 substeps × 1 iteration)."""
-    if model in NATIVE_LABELS:
-        return ()
-    return (("iterations", 1), ("substeps", 4))
-
-
-def stress_cases(*, quick: bool, models: Sequence[str] = tuple(sweep.MODEL_LABELS)) -> List[Case]:
-    """Every model × family value × dt, at the model's default settings."""
+def stress_cases(*, quick: bool, models: Optional[Sequence[str]] = None) -> List[Case]:
+    """Every model label (default all) × family value × dt, at the label's default settings."""
     cap = TIME_CAP_QUICK if quick else TIME_CAP_FULL
     dts = QUICK_DTS if quick else FULL_DTS
     out = []
-    for model in models:
+    for model in case_mod.model_labels(models):
         for family, (param, full) in FAMILIES.items():
             values = QUICK_FAMILIES[family] if quick else full
             for value in values:
                 for dt in dts:
                     n = int(value) if param == "n_segments" else 50
                     params = () if param == "n_segments" else ((param, float(value)),)
-                    out.append(Case(family, model, dt, n_segments=n, settings=_default_settings(model),
-                                    params=params, quick=quick, time_cap=cap))
+                    out.append(Case(family, model, dt, n_segments=n, params=params, quick=quick, time_cap=cap))
     return out
 
 
@@ -71,7 +65,7 @@ def run_stress(out: str, *, quick: bool = False, jobs: int = 1, models: Optional
     Returns:
       The latest row per run of ``stress.csv``.
     """
-    models = sweep.model_labels(models)
+    models = case_mod.model_labels(models)
     os.makedirs(out, exist_ok=True)
     csv_path = os.path.join(out, "stress.csv")
     start = time.perf_counter()
@@ -79,10 +73,9 @@ def run_stress(out: str, *, quick: bool = False, jobs: int = 1, models: Optional
     sweep.run_sweep(cases, csv_path, jobs=jobs, desc="stress", progress=progress)
     wall = time.perf_counter() - start
     keys = {c.key for c in cases}  # the folder may hold other sweeps: report this one
-    rows = [r for r in sweep.latest_rows(sweep.read_rows(csv_path)) if r["key"] in keys]
+    rows = [r for r in results.latest_rows(results.read_rows(csv_path)) if r["key"] in keys]
     for model in models:
         plots.stability_map(rows, model, os.path.join(out, f"stability_{model}.png"))
-    import platform
 
     md = [f"# mjcable stress{' --quick' if quick else ''}\n",
           f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s); {jobs} worker process(es); this call took "
@@ -100,7 +93,7 @@ def cli_stress(args) -> int:
     jobs = getattr(args, "jobs", None) or sweep.default_jobs()
     rows = run_stress(out, quick=bool(getattr(args, "quick", False)), jobs=int(jobs),
                       models=getattr(args, "models", None))
-    counts = {o: sum(r["outcome"] == o for r in rows) for o in sweep.OUTCOMES}
+    counts = {o: sum(r["outcome"] == o for r in rows) for o in OUTCOMES}
     print(f"wrote {os.path.join(out, 'stress.csv')} ({len(rows)} runs: "
           + ", ".join(f"{v} {k}" for k, v in counts.items() if v) + "), stability maps and stress.md")
     return 0

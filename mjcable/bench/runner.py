@@ -1,0 +1,237 @@
+"""Running one :class:`~mjcable.bench.case.Case`: build the simulator, step it under a wall-clock cap, sample the
+state, classify the outcome (:mod:`mjcable.bench.outcome`) and measure the error; one CSV row
+(:mod:`mjcable.bench.results`) per case.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import signal
+import threading
+import time
+import warnings
+from typing import Iterable
+
+import numpy as np
+
+from mjcable import metrics, scenes
+from mjcable.bench import case as case_mod
+from mjcable.bench import scenarios as scenarios_mod
+from mjcable.bench.case import Case
+from mjcable.bench.outcome import ENERGY_GROWTH, RESET_TOLERANCE, RUNAWAY_SPEED, STRAIN_LIMIT, Limits, \
+    classify_exception, judge
+from mjcable.bench.results import empty_row
+from mjcable.errors import SimulationDivergedError
+from mjcable.simulator import Simulator
+
+__all__ = ["run_case", "warm_up_models", "SAMPLE_INTERVAL"]
+
+SAMPLE_INTERVAL = 0.005  # s of simulated time between samples of the state (at least one step)
+
+
+class _TimeCap(BaseException):
+    """Raised by the wall-clock alarm; a BaseException, so that no library's ``except Exception`` swallows it."""
+
+
+@contextlib.contextmanager
+def _time_cap(seconds: float):
+    """Raise :class:`_TimeCap` in this (main) thread after ``seconds`` of wall time (SIGALRM), where possible."""
+    if not (hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()):
+        yield
+        return
+
+    def handler(signum, frame):
+        raise _TimeCap()
+
+    previous = signal.signal(signal.SIGALRM, handler)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _caused_by_time_cap(exc: BaseException) -> bool:
+    """Whether the alarm interrupted compiled code (numba, MuJoCo) and came back wrapped, e.g. as SystemError."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, _TimeCap):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def run_case(case: Case) -> dict:
+    """Run one case and return its CSV row (:func:`mjcable.bench.results.empty_row`, filled in).
+
+    A model that fails numerically gets its outcome (:data:`~mjcable.bench.outcome.OUTCOMES`), never an exception.
+
+    Raises:
+      Exception: one of :data:`~mjcable.bench.outcome.DEFECTS` from building or stepping (a broken model).
+    """
+    row = empty_row(case)
+    try:
+        scenario = scenarios_mod.get(case.scenario)
+        model, settings = case_mod.resolve(case.model)
+    except ValueError as exc:
+        row.update(outcome="rejected", reason=str(exc))
+        return row
+    row["error_kind"] = scenario.error_kind
+    params = dict(case.params)
+    try:
+        with _time_cap(case.time_cap):
+            _run(case, model, {**settings, **dict(case.settings)}, scenario, params, row)
+    except _TimeCap:
+        row.update(outcome="diverged", reason=f"over its time cap of {case.time_cap:g} s wall time "
+                                              f"(reached {row['sim_time']:.4g} s simulated)")
+        if row["steps"]:
+            row["wall_per_sim_s"] = row["step_wall_s"] / row["sim_time"]
+    return row
+
+
+def _run(case: Case, model: str, settings: dict, scenario, params: dict, row: dict) -> None:
+    building = True
+    try:
+        scene = scenario.make_scene(case.n_segments, params)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # e.g. springs capping an unreachable stiffness: recorded via strain
+            _warm_up(scene, model, case.dt, settings)
+            t0 = time.perf_counter()
+            sim = Simulator(scene, model, dt=case.dt, **settings)
+        if scenario.setup is not None:
+            scenario.setup(sim, params)
+        row["build_s"] = time.perf_counter() - t0
+        building = False
+        _simulate(case, scenario, params, scene, sim, row)
+    except _TimeCap:
+        raise
+    except Exception as exc:  # noqa: BLE001 - every failure becomes a classified row (defects re-raised)
+        if _caused_by_time_cap(exc):
+            raise _TimeCap() from exc
+        outcome, reason = classify_exception(exc, building=building)
+        row.update(outcome=outcome, reason=reason)
+
+
+def _warm_up(scene, model: str, dt: float, settings: dict) -> None:
+    """Build the same model once and take a step, so that JIT compilation and cache loading (numba) stay out of
+    the timed stepping; failures are left for the real run to report."""
+    try:
+        Simulator(scene, model, dt=dt, **settings).step()
+    except Exception as exc:  # noqa: BLE001
+        if _caused_by_time_cap(exc):
+            raise _TimeCap() from exc
+
+
+def warm_up_models(labels: Iterable[str]) -> None:
+    """Compile the kernels of each particle model among ``labels`` once in this process (numba writes its cache),
+    so that parallel workers load the cache instead of compiling the same functions at the same time."""
+    for label in dict.fromkeys(labels):
+        if label not in case_mod.MODEL_LABELS or case_mod.family(label) != "particle":
+            continue
+        model, fixed = case_mod.resolve(label)
+        for name in ("table", "hang"):
+            for extra in ({}, {"young": 1e7}):
+                scene = scenes.get(name, n_segments=4, **extra)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    _warm_up(scene, model, 0.002, fixed)
+
+
+def _limits(scenario, params: dict, sim, scale: float) -> Limits:
+    """The run's limits: the scenario's strain limit, the runaway speed above the driven one, energy growth on a
+    passive scene, and MuJoCo's clock where MuJoCo steps the model."""
+    return Limits(strain=STRAIN_LIMIT if scenario.strain_limit is None else scenario.strain_limit,
+                  speed=RUNAWAY_SPEED + float(params.get("speed", 0.0)),
+                  energy=ENERGY_GROWTH * scale if scenario.passive else math.inf,
+                  clock=RESET_TOLERANCE * sim.dt if sim.family == "native" else math.inf)
+
+
+def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict) -> None:
+    dt = case.dt
+    duration = params.get("duration", scenario.quick_duration if case.quick else scenario.duration)
+    duration = float(duration) + scenario.drive_end(params)
+    total_steps = max(1, int(round(duration / dt)))
+    per_sample = max(1, int(round(SAMPLE_INTERVAL / dt)))
+    masses = sim.particle_masses  # the scenario's setup may have added a load
+    l0 = scene.cable.segment_length
+    scale = float(masses.sum()) * 9.81 * max(scene.cable.length, 1e-3)
+    x0 = np.asarray(scene.cable.particles)
+    drive_end = scenario.drive_end(params)
+    limits = _limits(scenario, params, sim, scale)
+
+    x = sim.positions
+    previous = x
+    e_ref = metrics.energy(x, None, dt, masses)  # a passive cable's kinetic + potential energy can only fall
+    max_strain = metrics.max_strain(x, l0)
+    max_pen = metrics.penetration(x, scene)
+    times, com_x = [0.0], [float(np.dot(masses, x[:, 0]) / masses.sum())]
+    step_wall = 0.0
+    steps = 0
+    deadline = time.perf_counter() + case.time_cap
+    reason, outcome = "", "stable"
+    try:
+        while steps < total_steps:
+            count = min(per_sample, total_steps - steps)
+            if scenario.drive is not None:
+                # the drive moves in whole steps: one step at a time while it is active
+                if steps * dt < drive_end + dt:
+                    count = 1
+                scenario.drive(sim, steps * dt, params)
+            t0 = time.perf_counter()
+            for _ in range(count - 1):
+                sim.step()
+            step_wall += time.perf_counter() - t0
+            previous = sim.positions  # the state one step before the sample: finite-difference velocities
+            t0 = time.perf_counter()
+            sim.step()
+            step_wall += time.perf_counter() - t0
+            steps += count
+            row.update(step_wall_s=step_wall, sim_time=steps * dt, steps=steps)  # progress, kept on a time cap
+            x = sim.positions
+            strain = metrics.max_strain(x, l0)
+            max_strain = max(max_strain, strain)
+            max_pen = max(max_pen, metrics.penetration(x, scene))
+            if scenario.needs_com_x:
+                times.append(sim.time)
+                com_x.append(float(np.dot(masses, x[:, 0]) / masses.sum()))
+            verdict = judge(limits, time=sim.time, strain=strain,
+                            speed=float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt,
+                            energy_growth=metrics.energy(x, previous, dt, masses) - e_ref,
+                            mj_time=float(sim.mj_data.time),
+                            crossed=int(np.sum(metrics.crossed(x, scene, x0))))
+            if verdict is not None:
+                outcome, reason = verdict
+                break
+            if time.perf_counter() > deadline:
+                raise _TimeCap()
+    except SimulationDivergedError as exc:
+        outcome, reason = "diverged", exc.reason
+    except _TimeCap:
+        raise
+    except Exception as exc:  # noqa: BLE001 - classified (defects re-raised)
+        if _caused_by_time_cap(exc):
+            raise _TimeCap() from exc
+        outcome, reason = classify_exception(exc, building=False)
+    row.update(outcome=outcome, reason=reason, max_strain=max_strain, max_penetration=max_pen,
+               step_wall_s=step_wall, sim_time=steps * dt, steps=steps,
+               wall_per_sim_s=step_wall / (steps * dt) if steps else math.nan)
+    if outcome == "stable":
+        stuck = metrics.tunneled(x, scene, x0)
+        if np.any(stuck):
+            outcome, reason = "tunneled", f"{int(np.sum(stuck))} particle(s) inside or beyond an obstacle at the end"
+            row.update(outcome=outcome, reason=reason)
+    if params.get("save_positions"):
+        row["positions"] = x.tolist()
+    if outcome != "stable":
+        return
+    row["final_strain"] = metrics.max_strain(x, l0)
+    row["residual_speed"] = float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt
+    if scenario.evaluate is not None:
+        history = {"times": np.array(times), "com_x": np.array(com_x)}
+        try:
+            row["error"] = float(scenario.evaluate(scene, x, history))
+        except Exception as exc:  # noqa: BLE001 - a failed measurement is recorded, not raised
+            row["reason"] = f"error measurement failed: {type(exc).__name__}: {exc}"
