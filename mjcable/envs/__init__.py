@@ -34,8 +34,8 @@ from dm_control.rl import control
 from mjcable import render
 from mjcable import catalog
 from mjcable.envs import base, drape, reach_sag, unplug  # noqa: F401  (importing registers the tasks)
-from mjcable.envs.base import (DEFAULT_CONTROL_TIMESTEP, MAX_GRIPPER_SPEED, MODEL_DEFAULTS, SUITE, CablePhysics,
-                               CableTask)
+from mjcable.envs.base import (DEFAULT_CONTROL_TIMESTEP, FAMILY_DEFAULTS, MAX_GRIPPER_SPEED, SUITE, CablePhysics,
+                               CableTask, env_defaults)
 from mjcable.envs.workspace import STRETCH_MARGIN, Workspace
 
 __all__ = [
@@ -49,7 +49,8 @@ __all__ = [
     "Workspace",
     "DEFAULT_CONTROL_TIMESTEP",
     "MAX_GRIPPER_SPEED",
-    "MODEL_DEFAULTS",
+    "FAMILY_DEFAULTS",
+    "env_defaults",
     "STRETCH_MARGIN",
     "POLICIES",
 ]
@@ -69,13 +70,13 @@ def load(task: str, model: str = "flexrod", *, random=None, time_limit: Optional
 
     Args:
       task: one of :func:`names` (``"reach_sag"``, ``"drape"``, ``"unplug"``).
-      model: one of ``mjcable.MODELS``.
+      model: a model of the catalogue (:func:`mjcable.catalog.names`).
       random: an int seed, a ``numpy.random.RandomState`` or ``None`` (fresh entropy), as in dm_control.
       time_limit: episode length in seconds (> 0); default the task's (10 s).
       control_timestep: seconds between actions (> 0, a whole number of ``dt``); default 0.02 s.
       **settings: keyword arguments of :class:`mjcable.Simulator`: ``dt`` (default 0.002 s) and the model's
-        settings (``substeps``, solver iterations, ...); unset ones take :data:`MODEL_DEFAULTS` (10 substeps for
-        the particle solvers), then the Simulator's defaults.
+        settings (``substeps``, solver iterations, ...); unset ones take :func:`env_defaults` (10 substeps for
+        the particle family, see :mod:`mjcable.envs.base`), then the Simulator's defaults.
 
     Returns:
       A ``dm_control.rl.control.Environment`` whose ``physics`` is a :class:`CablePhysics`.

@@ -7,14 +7,33 @@ the rigid scene and the proxy capsules by MuJoCo) run, observe and render alike.
 Simulator's ``dt``; one control step is ``control_timestep / dt`` Simulator steps, and the grippers move a
 ``1 / n``-th of their commanded displacement before each of them, clamped to the task's :class:`Workspace`.
 
-Every episode starts on a fresh Simulator (a particle solver's state lives outside ``MjData``, and a native model
-compiled straight keeps its start pose in a keyframe, so ``mj_resetData`` would not restore either); a scene that
-has not been stepped is reused.
+The Physics keeps no copy of the Simulator's state: positions, velocities (the model's own), gripper targets and
+released sockets are read from :attr:`CablePhysics.simulator` when asked for, and the pins that are not grippers
+stay at their start particles, read from the scene. One Simulator serves every episode of a scene: an episode
+starts with :meth:`mjcable.Simulator.reset` (the exact start state, bit for bit); only an episode whose scene differs
+(a task drawing a random start shape) builds a new Simulator, with the same model, ``dt`` and settings.
+
+Environment settings (:func:`env_defaults`): the particle family takes ``substeps=10`` unless the caller sets
+``substeps``; every other setting is the Simulator's default. Measured on the ``unplug`` task's cable (the
+``socket`` scene's 0.1 kg, 0.77 m, 50 segments; ``dt`` = 2 ms, 1 iteration):
+
+* stretch of that cable hung straight down with a 2 N load at its end (tension 2.0 N at the load, 3.0 N at the top),
+  after 3 s: ``jakobsen`` and ``pbd`` 1.98 % at the catalogue's default of 4 substeps, 0.32 % at 10; ``xpbd``
+  (direct order) 0.000 % at both;
+* ``unplug``'s steady pull (the gripper drawn away from the socket at 0.05 m/s until the workspace stops it at 99 % of
+  the cable's length): at 4 substeps ``jakobsen`` and ``pbd`` stretch so much that the pull peaks at 1.78 N and the
+  plug (``RELEASE_FORCE`` 2.5 N) never comes out; at 10 substeps it comes out after 1.3 s, as on the native
+  ``springs`` and ``flexrod`` (1.2 s, 1.1 s); ``xpbd`` lets go at the first motion at either setting. A full-speed
+  yank (0.5 m/s) releases every particle model at either setting within two control steps.
+
+So the environments keep 10 substeps for the particle family (the per-step cost stays well under real time); a model
+registered in the catalogue as ``"particle"`` gets the same.
 """
 
 from __future__ import annotations
 
 import collections
+import dataclasses
 import math
 from typing import Dict, Optional, Sequence
 
@@ -27,8 +46,7 @@ from dm_control.suite import base
 from dm_control.utils import containers
 from dm_env import specs
 
-from mjcable import scenes
-from mjcable.catalog import check_dt, check_model
+from mjcable import catalog, scenes
 from mjcable.envs.workspace import Workspace
 from mjcable.scene import Scene
 from mjcable.simulator import Simulator
@@ -40,9 +58,10 @@ __all__ = [
     "make_environment",
     "register",
     "scene_with_pins",
+    "env_defaults",
     "DEFAULT_CONTROL_TIMESTEP",
     "MAX_GRIPPER_SPEED",
-    "MODEL_DEFAULTS",
+    "FAMILY_DEFAULTS",
 ]
 
 SUITE = containers.TaggedTasks()  # task name -> factory(model, *, random, time_limit, control_timestep, **settings)
@@ -52,74 +71,82 @@ MAX_GRIPPER_SPEED = 0.5  # m/s per axis: the action bound is this times the cont
 _ACTION_RTOL = 1e-6  # relative slack on the action bounds (float32 actions exactly at a bound round past it)
 _STEP_RTOL = 1e-8  # relative slack when checking that the control timestep is a whole number of dt
 _DEFAULT_DT = 0.002  # s, the Simulator's default step
-_CABLE_RGBA = np.array([0.85, 0.25, 0.12, 1.0], dtype=np.float32)  # build/world.py's "cable" material
-# Settings the environments give a model unless the caller sets them. The particle solvers default to one substep
-# of one iteration per dt, which leaves a 50-segment cable ~9 % longer under a 2 N pull: an unplug socket would never
-# feel its release force. Ten substeps keep the stretch near 0.1 % (Small Steps) and still run faster than real time.
-MODEL_DEFAULTS = {"jakobsen": {"substeps": 10}, "pbd": {"substeps": 10}, "xpbd": {"substeps": 10}}
+_CABLE_RGBA = np.array([0.85, 0.25, 0.12, 1.0], dtype=np.float32)  # mjcf/world.py's "cable" material
+# Settings the environments give every model of a catalogue family unless the caller sets them (measurements in the
+# module docstring: at 4 substeps the particle solvers' cable stretches ~2 % under unplug's pull, which then never
+# reaches the socket's release force).
+FAMILY_DEFAULTS = {"particle": {"substeps": 10}}
+
+
+def env_defaults(model: str) -> dict:
+    """The settings the environments give ``model`` unless the caller sets them: its catalogue family's entry of
+    :data:`FAMILY_DEFAULTS`, restricted to the fields its settings dataclass has.
+
+    Raises:
+      ValueError: ``model`` is not in the catalogue.
+    """
+    entry = catalog.get(model)
+    fields = {f.name for f in dataclasses.fields(entry.settings)}
+    return {k: v for k, v in FAMILY_DEFAULTS.get(entry.family, {}).items() if k in fields}
 
 
 class CablePhysics(mujoco.Physics):
     """A ``dm_control`` Physics stepped by an :class:`mjcable.Simulator`, with named cable read-outs.
 
     Create it with :meth:`from_simulator`; tasks start episodes with :meth:`start` and command grippers with
-    :meth:`command_grippers`.
+    :meth:`command_grippers`. Every read-out comes from :attr:`simulator` (or, for fixed pins, its scene).
     """
 
     @classmethod
-    def from_simulator(cls, simulator: Simulator, *, settings: Optional[dict] = None) -> "CablePhysics":
-        """A Physics sharing ``simulator``'s ``MjModel`` and ``MjData``.
-
-        Args:
-          simulator: the simulator to step.
-          settings: the Simulator keyword arguments (``dt`` and model settings) used to rebuild it at each episode.
-        """
+    def from_simulator(cls, simulator: Simulator) -> "CablePhysics":
+        """A Physics sharing ``simulator``'s ``MjModel`` and ``MjData``; a scene that differs at :meth:`start` gets a
+        new Simulator of the same model, ``dt`` and settings."""
+        if not isinstance(simulator, Simulator):
+            raise ValueError(f"simulator must be an mjcable.Simulator, got {type(simulator).__name__}")
         physics = cls.__new__(cls)
         physics._warnings_cause_exception = True
-        physics._settings = dict(settings or {})
-        physics._settings.setdefault("dt", simulator.dt)
         physics._workspace = None
+        physics._commands = {}  # gripper displacements between the task's before_step and the next step
         physics._attach(simulator)
         return physics
 
     def _attach(self, simulator: Simulator) -> None:
         self._sim = simulator
-        scene = simulator.scene
-        self._pins = np.array([scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))],
-                              dtype=np.float64).reshape(-1, 3)
-        self._commands: Dict[int, np.ndarray] = {}
-        self._velocity = np.zeros((scene.cable.n_particles, 3))
-        self._dirty = False
         self._reload_from_data(wrapper.MjData(simulator.mj_data))
 
     # --- episodes -------------------------------------------------------------------------------------------------
 
     def start(self, scene: Scene, workspace: Workspace) -> None:
-        """Start an episode of ``scene`` with grippers clamped to ``workspace``: a fresh Simulator unless the
-        current one holds the same, untouched scene.
+        """Start an episode of ``scene`` with grippers clamped to ``workspace``: the Simulator reset to its start state
+        if it holds ``scene``, else a new Simulator of ``scene`` (same model, ``dt`` and settings).
 
         Raises:
-          ValueError: a gripper's start position lies outside ``workspace`` (a task design error).
+          ValueError: ``workspace`` is not ``scene``'s, or a gripper's start position lies outside it (a task design
+            error).
         """
         if workspace.scene != scene:
             raise ValueError("workspace.scene must be the scene being started")
-        if self._dirty or scene != self._sim.scene:
-            self._attach(Simulator(scene, self._sim.model, **self._settings))
-        engaged = self.pins_engaged()
+        sim = self._sim
+        if scene != sim.scene:
+            self._attach(Simulator(scene, sim.model, dt=sim.dt, **dataclasses.asdict(sim.settings)))
+        else:
+            sim.reset()
+        self._commands = {}
+        pins, engaged = self.pin_positions(), self.pins_engaged()
         for k in scene.grippers:
-            excess = workspace.violation(k, self._pins[k], self._pins, engaged)
+            excess = workspace.violation(k, pins[k], pins, engaged)
             if excess > 0.0:
                 raise ValueError(f"gripper of pin {k} starts {excess:.3g} m outside its workspace at "
-                                 f"{self._pins[k]}; widen the workspace or move the start")
+                                 f"{pins[k]}; widen the workspace or move the start")
         self._workspace = workspace
 
     def reset(self, keyframe_id=None) -> None:
-        """Restart the current scene from its start state (a fresh Simulator if it has been stepped)."""
+        """Reset the Simulator to its scene's exact start state (:meth:`mjcable.Simulator.reset`)."""
         if keyframe_id is not None:
             raise ValueError(f"keyframe_id is not supported by a cable Physics (episodes start from the scene), "
                              f"got {keyframe_id!r}")
-        if self._dirty:
-            self._attach(Simulator(self._sim.scene, self._sim.model, **self._settings))
+        self._commands = {}
+        self._sim.reset()
 
     def copy(self, share_model=False):
         raise NotImplementedError("a CablePhysics cannot be copied: its state lives in an mjcable.Simulator; "
@@ -146,18 +173,15 @@ class CablePhysics(mujoco.Physics):
         if self._commands and self._workspace is None:
             raise RuntimeError("start an episode (physics.start) before commanding grippers")
         commands, self._commands = self._commands, {}
-        before = self._sim.positions
-        self._dirty = True
+        sim = self._sim
         with self.check_invalid_state():
             for _ in range(nstep):
                 if commands:
-                    engaged = self.pins_engaged()
+                    pins, engaged = self.pin_positions(), self.pins_engaged()
                     for k, displacement in commands.items():
-                        self._pins[k] = self._workspace.move(k, self._pins[k], displacement / nstep, self._pins,
-                                                             engaged)
-                        self._sim.move_gripper(k, self._pins[k])
-                self._sim.step()
-        self._velocity = (self._sim.positions - before) / (nstep * self._sim.dt)
+                        pins[k] = self._workspace.move(k, pins[k], displacement / nstep, pins, engaged)
+                        sim.move_gripper(k, pins[k])
+                sim.step()
 
     def render(self, height=240, width=320, camera_id=-1, overlays=(), depth=False, segmentation=False,
                scene_option=None, render_flag_overrides=None, scene_callback=None) -> np.ndarray:
@@ -183,6 +207,7 @@ class CablePhysics(mujoco.Physics):
 
     @property
     def simulator(self) -> Simulator:
+        """The :class:`mjcable.Simulator` this Physics steps (the same one across episodes of the same scene)."""
         return self._sim
 
     @property
@@ -198,16 +223,21 @@ class CablePhysics(mujoco.Physics):
         return self._sim.positions
 
     def centreline_velocity(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` mean particle velocities over the last control step in m/s (zero at the start)."""
-        return self._velocity.copy()
+        """``(n_segments + 1, 3)`` particle velocities in m/s, the model's own (:attr:`mjcable.Simulator.velocities`)."""
+        return self._sim.velocities
 
     def gripper_positions(self) -> np.ndarray:
-        """``(n_grippers, 3)`` gripper positions in metres, in the order of ``scene.grippers``."""
-        return self._pins[list(self._sim.scene.grippers)].copy()
+        """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.grippers``."""
+        return self._sim.gripper_positions
 
     def pin_positions(self) -> np.ndarray:
-        """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are, anchors where they started."""
-        return self._pins.copy()
+        """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the other pins
+        (world pins, sockets) at their start particles."""
+        scene = self._sim.scene
+        pins = np.array([scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))],
+                        dtype=np.float64).reshape(-1, 3)
+        pins[list(scene.grippers)] = self._sim.gripper_positions
+        return pins
 
     def pins_engaged(self) -> np.ndarray:
         """``(n_pins,)`` bool: whether each pin still holds the cable (a released socket does not)."""
@@ -320,14 +350,13 @@ def _check_seconds(name: str, value, *, allow_none: bool) -> Optional[float]:
 def make_environment(task: CableTask, physics_class: type, model: str, *, time_limit: float,
                      control_timestep: float, settings: dict) -> control.Environment:
     """Build the Simulator of ``task``'s first scene, wrap it in ``physics_class`` and make the Environment."""
-    dt = check_dt(settings.get("dt", _DEFAULT_DT))
+    dt = catalog.check_dt(settings.get("dt", _DEFAULT_DT))
     n = control_timestep / dt
     if abs(n - round(n)) > _STEP_RTOL * n or round(n) < 1:
         raise ValueError(f"control_timestep must be a whole number (>= 1) of Simulator steps dt = {dt:g} s, "
                          f"got {control_timestep!r}")
-    settings = {**settings, "dt": dt}
-    simulator = Simulator(task.make_scene(), model, **settings)
-    physics = physics_class.from_simulator(simulator, settings=settings)
+    simulator = Simulator(task.make_scene(), model, **{**settings, "dt": dt})
+    physics = physics_class.from_simulator(simulator)
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=control_timestep)
 
 
@@ -337,12 +366,12 @@ def register(default_time_limit: float, *tags: str):
     def wrap(task_class):
         def factory(model: str = "flexrod", *, random=None, time_limit: Optional[float] = None,
                     control_timestep: Optional[float] = None, **settings) -> control.Environment:
-            check_model(model)
+            catalog.check_model(model)
             limit = _check_seconds("time_limit", time_limit, allow_none=True) or default_time_limit
             step = _check_seconds("control_timestep", control_timestep, allow_none=True) or DEFAULT_CONTROL_TIMESTEP
             task = task_class(random=random, control_timestep=step)
             return make_environment(task, task_class.physics_class, model, time_limit=limit,
-                                    control_timestep=step, settings={**MODEL_DEFAULTS.get(model, {}), **settings})
+                                    control_timestep=step, settings={**env_defaults(model), **settings})
 
         task_class.default_time_limit = default_time_limit
         factory.__name__ = task_class.name
