@@ -2,18 +2,24 @@
 
 Frozen dataclasses in SI units, validated on construction. Gravity is −9.81 m/s² along z. A :class:`Scene` is the
 single source of truth from which every cable model (MuJoCo's native ones and the particle solvers) is built.
+
+Construction checks what no model could simulate: a cable of more than :data:`MAX_SEGMENTS` segments, a cable that
+starts inside an obstacle (deeper than :data:`START_CONTACT_TOLERANCE`), and warns about a cable thicker than its
+segments are long.
 """
 
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
 import functools
 import math
+import warnings
 from typing import ClassVar, Optional, Tuple
 
 import numpy as np
 
-from mjcable import spline
+from mjcable import _validate, geometry, spline
 
 __all__ = [
     "GRAVITY",
@@ -27,33 +33,25 @@ __all__ = [
     "Capsule",
     "Sphere",
     "Scene",
+    "MAX_SEGMENTS",
+    "START_CONTACT_TOLERANCE",
 ]
 
 GRAVITY = np.array([0.0, 0.0, -9.81])  # m/s²
 PIN_KINDS = ("world", "gripper", "socket")
+# The most segments a cable may have. The start state is resampled at construction (about 4 s for 10⁵ segments on
+# one core, linear in n) and its equal chords hold to n·ε·|x| (1e-11 m, 1e-6 of a chord, for a 1 m cable of 10⁵
+# segments): beyond that resampling is slow and its round-off starts to show as strain. No model is practical
+# there anyway (the ``joints`` chain's mass matrix has ~(3n)²/2 entries: 3.6 GB at 10⁴ segments). Without a limit
+# a typo such as 10**9 allocates tens of GB before anything is built.
+MAX_SEGMENTS = 100_000
+# m: how far the cable's surface may start inside an obstacle (round-off of a cable laid exactly on a surface,
+# far below any contact margin); deeper, MuJoCo's contacts and the solvers' projections throw it out at up to
+# 1000 m/s on the first step.
+START_CONTACT_TOLERANCE = 1e-6
+_ROUND_OFF = 1e-9  # relative: lengths equal to this are equal
 
 Vec3 = Tuple[float, float, float]
-
-
-def _finite_number(name: str, value, *, low: float = -math.inf, low_inclusive: bool = True) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    v = float(value)
-    ok = math.isfinite(v) and (v >= low if low_inclusive else v > low)
-    if not ok:
-        bound = f">= {low:g}" if low_inclusive else f"> {low:g}"
-        raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
-    return v
-
-
-def _vec3(name: str, value) -> Vec3:
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}") from exc
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
-    return tuple(float(x) for x in v)
 
 
 def _set(obj, name, value):
@@ -67,8 +65,9 @@ class CableSpec:
     Args:
       points: ``(m, 3)`` Catmull-Rom control points in metres (m >= 2, finite, no consecutive repeats). The cable
         starts on the curve through them; its rest length is that curve resampled into ``n_segments`` equal chords.
-      n_segments: number of segments (>= 1); every model reports ``n_segments + 1`` centreline particles.
-      radius: cable radius in metres (> 0).
+      n_segments: number of segments (1 to :data:`MAX_SEGMENTS`); every model reports ``n_segments + 1``
+        centreline particles.
+      radius: cable radius in metres (> 0); a radius larger than a segment warns (neighbouring capsules overlap).
       mass: total cable mass in kg (> 0).
       young: Young's modulus in Pa for bending (>= 0; 0 is a limp rope). E·I uses I = π r⁴ / 4.
       stretch_stiffness: axial stiffness E·A in newtons (> 0), or ``None`` for an inextensible cable.
@@ -76,6 +75,10 @@ class CableSpec:
       friction: Coulomb coefficient μ of the cable's contacts (>= 0), used for cable-obstacle contacts unless the
         obstacle sets its own.
       kind: Catmull-Rom kind, ``"centripetal"`` (default) or ``"uniform"`` (the thesis's form).
+
+    Raises:
+      ValueError: a parameter outside its range, or a curve that cannot be resampled into ``n_segments`` equal
+        chords (the start state is resampled on construction).
     """
 
     points: tuple
@@ -91,18 +94,24 @@ class CableSpec:
     def __post_init__(self):
         curve = spline.CatmullRom(self.points, kind=self.kind)  # validates points and kind
         _set(self, "points", tuple(tuple(float(x) for x in p) for p in curve.points))
-        n = self.n_segments
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ValueError(f"n_segments must be an integer >= 1, got {n!r}")
-        _set(self, "n_segments", int(n))
-        _set(self, "radius", _finite_number("radius", self.radius, low=0.0, low_inclusive=False))
-        _set(self, "mass", _finite_number("mass", self.mass, low=0.0, low_inclusive=False))
-        _set(self, "young", _finite_number("young", self.young, low=0.0))
-        if self.stretch_stiffness is not None:
-            _set(self, "stretch_stiffness",
-                 _finite_number("stretch_stiffness", self.stretch_stiffness, low=0.0, low_inclusive=False))
-        _set(self, "damping", _finite_number("damping", self.damping, low=0.0))
-        _set(self, "friction", _finite_number("friction", self.friction, low=0.0))
+        _set(self, "n_segments", _validate.integer("n_segments", self.n_segments, low=1))
+        if self.n_segments > MAX_SEGMENTS:
+            raise ValueError(f"n_segments must be at most mjcable.scene.MAX_SEGMENTS = {MAX_SEGMENTS} (no model is "
+                             f"practical beyond it, and resampling the start state would take minutes to hours and "
+                             f"gigabytes), got {self.n_segments}")
+        _set(self, "radius", _validate.number("radius", self.radius, low=0.0, low_open=True, unit="m"))
+        _set(self, "mass", _validate.number("mass", self.mass, low=0.0, low_open=True, unit="kg"))
+        _set(self, "young", _validate.number("young", self.young, low=0.0, unit="Pa"))
+        _set(self, "stretch_stiffness", _validate.optional_number("stretch_stiffness", self.stretch_stiffness,
+                                                                   low=0.0, low_open=True, unit="N"))
+        _set(self, "damping", _validate.number("damping", self.damping, low=0.0, unit="1/s"))
+        _set(self, "friction", _validate.number("friction", self.friction, low=0.0))
+        # segment_length resamples the start state (a curve that cannot be resampled raises here); a radius equal
+        # to a segment up to round-off is not larger
+        if self.radius > self.segment_length * (1.0 + _ROUND_OFF):
+            warnings.warn(f"radius = {self.radius:g} m is larger than a segment ({self.segment_length:.3g} m, "
+                          f"{self.n_segments} segments): neighbouring capsules overlap, so contacts and "
+                          f"self-collision are unreliable; use fewer segments or a thinner cable", stacklevel=3)
 
     @functools.cached_property
     def curve(self) -> spline.CatmullRom:
@@ -177,19 +186,14 @@ class Pin:
     release_force: Optional[float] = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self):
-        if isinstance(self.index, bool) or not isinstance(self.index, (int, np.integer)):
-            raise ValueError(f"index must be an integer, got {self.index!r}")
-        _set(self, "index", int(self.index))
-        if self.kind not in PIN_KINDS:
-            raise ValueError(f"kind must be one of {PIN_KINDS}, got {self.kind!r}")
-        if not isinstance(self.clamp, (bool, np.bool_)):
-            raise ValueError(f"clamp must be a bool, got {self.clamp!r}")
-        _set(self, "clamp", bool(self.clamp))
+        _set(self, "index", _validate.integer("index", self.index))
+        _validate.choice("kind", self.kind, PIN_KINDS)
+        _set(self, "clamp", _validate.boolean("clamp", self.clamp))
         if self.kind == "socket":
             if self.release_force is None:
                 raise ValueError("release_force is required for a socket pin: the force in N above which it lets go")
             _set(self, "release_force",
-                 _finite_number("release_force", self.release_force, low=0.0, low_inclusive=False))
+                 _validate.number("release_force", self.release_force, low=0.0, low_open=True, unit="N"))
         elif self.release_force is not None:
             raise ValueError(f"release_force applies only to kind='socket', got {self.release_force!r} "
                              f"for kind={self.kind!r}")
@@ -205,10 +209,9 @@ class Obstacle:
     friction: Optional[float] = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self):
-        _set(self, "pos", _vec3("pos", self.pos))
-        _set(self, "euler", _vec3("euler", self.euler))
-        if self.friction is not None:
-            _set(self, "friction", _finite_number("friction", self.friction, low=0.0))
+        _set(self, "pos", _validate.vec3("pos", self.pos, unit="m"))
+        _set(self, "euler", _validate.vec3("euler", self.euler, unit="degrees"))
+        _set(self, "friction", _validate.optional_number("friction", self.friction, low=0.0))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -227,7 +230,7 @@ class Box(Obstacle):
 
     def __post_init__(self):
         super().__post_init__()
-        size = _vec3("size", self.size)
+        size = _validate.vec3("size", self.size, unit="m")
         if min(size) <= 0:
             raise ValueError(f"size must be 3 positive half-extents in metres, got {self.size!r}")
         _set(self, "size", size)
@@ -239,7 +242,7 @@ class _Round(Obstacle):
 
     def __post_init__(self):
         super().__post_init__()
-        _set(self, "radius", _finite_number("radius", self.radius, low=0.0, low_inclusive=False))
+        _set(self, "radius", _validate.number("radius", self.radius, low=0.0, low_open=True, unit="m"))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -258,7 +261,7 @@ class Cylinder(_Round):
 
     def __post_init__(self):
         super().__post_init__()
-        _set(self, "half_length", _finite_number("half_length", self.half_length, low=0.0, low_inclusive=False))
+        _set(self, "half_length", _validate.number("half_length", self.half_length, low=0.0, low_open=True, unit="m"))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -274,9 +277,14 @@ class Scene:
 
     Args:
       cable: the cable.
-      pins: pins on distinct particles.
-      obstacles: static obstacles.
+      pins: a sequence of pins on distinct particles.
+      obstacles: a sequence of static obstacles; the cable's start (its particles, grown by its radius) must lie
+        outside every one of them, up to :data:`START_CONTACT_TOLERANCE` (lying on a surface is fine).
       name: optional label (the built-in scenes set it).
+
+    Raises:
+      ValueError: a bad pin or obstacle sequence, a pin out of range or two on one particle, or a cable that starts
+        inside an obstacle (naming the obstacle, the particle and the depth).
     """
 
     cable: CableSpec
@@ -287,10 +295,7 @@ class Scene:
     def __post_init__(self):
         if not isinstance(self.cable, CableSpec):
             raise ValueError(f"cable must be a CableSpec, got {type(self.cable).__name__}")
-        pins = tuple(self.pins)
-        for pin in pins:
-            if not isinstance(pin, Pin):
-                raise ValueError(f"pins must be Pin instances, got {pin!r}")
+        pins = _sequence("pins", self.pins, Pin, "Pin instances, e.g. (Pin(0),)")
         n = self.cable.n_particles
         seen = {}
         for k, pin in enumerate(pins):
@@ -301,12 +306,13 @@ class Scene:
             if i in seen:
                 raise ValueError(f"two pins on one particle: pins[{seen[i]}] and pins[{k}] both hold particle {i}")
             seen[i] = k
-        obstacles = tuple(self.obstacles)
-        for ob in obstacles:
-            if not isinstance(ob, Obstacle):
-                raise ValueError(f"obstacles must be Floor, Box, Cylinder, Capsule or Sphere, got {ob!r}")
+        obstacles = _sequence("obstacles", self.obstacles, Obstacle,
+                              "Floor, Box, Cylinder, Capsule or Sphere instances, e.g. (Floor(),)")
+        _check_start_clear(self.cable, obstacles)
         _set(self, "pins", pins)
         _set(self, "obstacles", obstacles)
+        if not isinstance(self.name, str):
+            raise ValueError(f"name must be a str, got {self.name!r}")
 
     def pin_particle(self, k: int) -> int:
         """The particle index (non-negative) held by ``pins[k]``."""
@@ -325,3 +331,28 @@ class Scene:
     def with_cable(self, **overrides) -> "Scene":
         """A copy with ``CableSpec`` fields replaced (e.g. ``n_segments=100``)."""
         return dataclasses.replace(self, cable=dataclasses.replace(self.cable, **overrides))
+
+
+def _sequence(name: str, value, kind: type, what: str) -> tuple:
+    """``value`` as a tuple of ``kind`` instances (a single instance, or anything else, is rejected)."""
+    if isinstance(value, (str, bytes, kind)) or not isinstance(value, collections.abc.Iterable):
+        raise ValueError(f"{name} must be a sequence of {what}, got {value!r}")
+    items = tuple(value)
+    for k, item in enumerate(items):
+        if not isinstance(item, kind):
+            raise ValueError(f"{name}[{k}] must be one of {what}, got {item!r}")
+    return items
+
+
+def _check_start_clear(cable: CableSpec, obstacles: tuple) -> None:
+    """Raise if the cable's surface starts more than :data:`START_CONTACT_TOLERANCE` inside an obstacle."""
+    for k, ob in enumerate(obstacles):
+        distances, _ = geometry.signed_distances(cable.particles, ob)
+        depth = cable.radius - distances  # how far the cable's surface reaches into the obstacle, m
+        i = int(np.argmax(depth))
+        if depth[i] > START_CONTACT_TOLERANCE:
+            raise ValueError(
+                f"obstacles[{k}] ({type(ob).__name__} at pos={ob.pos}) holds the cable's start: particle {i} at "
+                f"{np.round(cable.particles[i], 6).tolist()} is {depth[i]:.4g} m deep (the cable's radius "
+                f"{cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move the obstacle or "
+                f"the cable's points")

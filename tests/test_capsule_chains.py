@@ -36,12 +36,12 @@ def _speed(sim: mjcable.Simulator, seconds: float = 0.02) -> float:
 def _socket_force(sim: mjcable.Simulator, k: int) -> float:
     """The socket's force on the plug in the last MuJoCo step: the vector sum of the constraint forces of the
     connect equalities ``pin{k}`` and ``pin{k}_clamp`` (0 once released)."""
-    m, d = sim.mj_model, sim.mj_data
-    rows = d.efc_type[: d.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+    mj_model, mj_data = sim.mj_model, sim.mj_data
+    rows = mj_data.efc_type[: mj_data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
     total = np.zeros(3)
     for clamp in (False, True):
-        eq = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=clamp))
-        force = d.efc_force[: d.nefc][rows & (d.efc_id[: d.nefc] == eq)][:3]
+        eq = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=clamp))
+        force = mj_data.efc_force[: mj_data.nefc][rows & (mj_data.efc_id[: mj_data.nefc] == eq)][:3]
         if force.size:
             total += force
     return float(np.linalg.norm(total))
@@ -93,13 +93,13 @@ def test_builtin_scenes_step_from_compiled_pose(model, young):
     """Plain mj_step from qpos0 (or the start keyframe) for 2 s raises no MuJoCo warning."""
     for name in ("hang", "socket", "drape"):
         scene = mjcable.scenes.get(name, young=young, n_segments=20)
-        m = mjcable.build(scene, model).compile()
-        d = mujoco.MjData(m)
-        key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, START_KEY)
+        mj_model = mjcable.build(scene, model).compile()
+        mj_data = mujoco.MjData(mj_model)
+        key = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_KEY, START_KEY)
         if key >= 0:
-            mujoco.mj_resetDataKeyframe(m, d, key)
-        mujoco.mj_step(m, d, nstep=round(2.0 / m.opt.timestep))
-        assert not np.any(d.warning.number), f"{name}: warnings {d.warning.number}"
+            mujoco.mj_resetDataKeyframe(mj_model, mj_data, key)
+        mujoco.mj_step(mj_model, mj_data, nstep=round(2.0 / mj_model.opt.timestep))
+        assert not np.any(mj_data.warning.number), f"{name}: warnings {mj_data.warning.number}"
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -110,17 +110,17 @@ def test_stiff_cable_has_a_straight_rest_shape(model):
     scene = Scene(CableSpec(points, 15, 0.005, 0.02, young=5e6, damping=5.0))
     spec = mjcable.build(scene, model)
     spec.option.gravity = [0.0, 0.0, 0.0]
-    m = spec.compile()
-    d = mujoco.MjData(m)
-    key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, START_KEY)
+    mj_model = spec.compile()
+    mj_data = mujoco.MjData(mj_model)
+    key = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_KEY, START_KEY)
     if key >= 0:
-        mujoco.mj_resetDataKeyframe(m, d, key)
-    sites = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i)) for i in range(16)]
-    mujoco.mj_forward(m, d)
-    np.testing.assert_allclose(d.site_xpos[sites], scene.cable.particles, atol=1e-12)
-    mujoco.mj_step(m, d, nstep=round(3.0 / m.opt.timestep))
-    mujoco.mj_kinematics(m, d)
-    p = d.site_xpos[sites]
+        mujoco.mj_resetDataKeyframe(mj_model, mj_data, key)
+    sites = [mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i)) for i in range(16)]
+    mujoco.mj_forward(mj_model, mj_data)
+    np.testing.assert_allclose(mj_data.site_xpos[sites], scene.cable.particles, atol=1e-12)
+    mujoco.mj_step(mj_model, mj_data, nstep=round(3.0 / mj_model.opt.timestep))
+    mujoco.mj_kinematics(mj_model, mj_data)
+    p = mj_data.site_xpos[sites]
     end_to_end = np.linalg.norm(p[-1] - p[0])
     assert end_to_end == pytest.approx(scene.cable.length, rel=1e-3)
 
@@ -277,8 +277,8 @@ def test_composite_plugin_moduli():
 
 def test_joints_stiffness_is_ei_over_l0():
     scene = mjcable.scenes.get("hang", young=2e6)
-    m = mjcable.build(scene, "joints").compile()
-    stiffness = m.jnt_stiffness[m.jnt_type == mujoco.mjtJoint.mjJNT_BALL]
+    mj_model = mjcable.build(scene, "joints").compile()
+    stiffness = mj_model.jnt_stiffness[mj_model.jnt_type == mujoco.mjtJoint.mjJNT_BALL]
     expected = 2e6 * math.pi * scene.cable.radius**4 / 4 / scene.cable.segment_length
     assert stiffness[0] == 0.0  # hang's world pin at particle 0: a ball joint free to rotate
     np.testing.assert_allclose(stiffness[1:], expected)

@@ -30,10 +30,11 @@ def _steady(sim: mjcable.Simulator, seconds: float = 0.05) -> float:
 
 def _equality_force(sim: mjcable.Simulator, name: str) -> float:
     """Norm of the force (N) of connect equality ``name`` in the last step (its first three constraint rows)."""
-    m, d = sim.mj_model, sim.mj_data
-    eq = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, name)
-    rows = (d.efc_type[: d.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (d.efc_id[: d.nefc] == eq)
-    return float(np.linalg.norm(d.efc_force[: d.nefc][rows][:3]))
+    mj_model, mj_data = sim.mj_model, sim.mj_data
+    eq = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_EQUALITY, name)
+    n = mj_data.nefc
+    rows = (mj_data.efc_type[:n] == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (mj_data.efc_id[:n] == eq)
+    return float(np.linalg.norm(mj_data.efc_force[:n][rows][:3]))
 
 
 def test_settles_to_the_inextensible_catenary(catenary):
@@ -62,26 +63,26 @@ def test_edge_strain_of_a_100_segment_hanging_cable_stays_below_1e_3():
 def test_mass_and_rest_length_are_the_cables(young):
     scene = mjcable.scenes.get("socket", young=young)  # a gripper and a clamped socket: extra bodies and sites
     sim = mjcable.Simulator(scene, MODEL, substeps=flexrod.stable_substeps(scene, 0.002))
-    m = sim.mj_model
-    bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, flexrod.vertex_body(i))
+    mj_model = sim.mj_model
+    bodies = [mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_BODY, flexrod.vertex_body(i))
               for i in range(scene.cable.n_particles)]
-    np.testing.assert_allclose(m.body_mass[bodies], scene.cable.particle_masses, rtol=1e-12)
-    assert m.body_mass[bodies].sum() == pytest.approx(scene.cable.mass, rel=1e-12)
-    assert m.flexedge_length0.sum() == pytest.approx(scene.cable.length, rel=1e-9)
-    np.testing.assert_allclose(m.flexedge_length0, scene.cable.segment_length, rtol=1e-9)
-    assert m.flex_radius[0] == scene.cable.radius
+    np.testing.assert_allclose(mj_model.body_mass[bodies], scene.cable.particle_masses, rtol=1e-12)
+    assert mj_model.body_mass[bodies].sum() == pytest.approx(scene.cable.mass, rel=1e-12)
+    assert mj_model.flexedge_length0.sum() == pytest.approx(scene.cable.length, rel=1e-9)
+    np.testing.assert_allclose(mj_model.flexedge_length0, scene.cable.segment_length, rtol=1e-9)
+    assert mj_model.flex_radius[0] == scene.cable.radius
     np.testing.assert_allclose(sim.positions, scene.cable.particles, atol=1e-12)
 
 
 def test_every_vertex_is_a_point_mass_on_three_slide_joints():
     scene = mjcable.scenes.get("hang", n_segments=10)
-    m = mjcable.build(scene, MODEL).compile()
+    mj_model = mjcable.build(scene, MODEL).compile()
     n = scene.cable.n_particles
-    assert m.nq == m.nv == 3 * n
-    assert np.all(m.jnt_type == mujoco.mjtJoint.mjJNT_SLIDE)
-    np.testing.assert_array_equal(m.flex_vertbodyid, [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
+    assert mj_model.nq == mj_model.nv == 3 * n
+    assert np.all(mj_model.jnt_type == mujoco.mjtJoint.mjJNT_SLIDE)
+    np.testing.assert_array_equal(mj_model.flex_vertbodyid, [mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_BODY,
                                                                          flexrod.vertex_body(i)) for i in range(n)])
-    np.testing.assert_allclose(m.dof_damping, scene.cable.damping * np.repeat(scene.cable.particle_masses, 3))
+    np.testing.assert_allclose(mj_model.dof_damping, scene.cable.damping * np.repeat(scene.cable.particle_masses, 3))
 
 
 @pytest.mark.parametrize("scene_name", mjcable.scenes.names())
@@ -99,9 +100,9 @@ def test_cable_comes_to_rest_on_the_table_top():
     z = sim.positions[:, 2]
     resting = TABLE_TOP + scene.cable.radius
     assert np.abs(z - resting).max() < 1.5e-3, f"z in [{z.min():.4f}, {z.max():.4f}], expected {resting:.4f}"
-    d = sim.mj_data
-    flex_contacts = d.contact.flex[: d.ncon, 1] == 0  # geom (table) vs flex 0
-    assert flex_contacts.any() and np.all(d.contact.dim[: d.ncon][flex_contacts] == 3)
+    mj_data = sim.mj_data
+    flex_contacts = mj_data.contact.flex[: mj_data.ncon, 1] == 0  # geom (table) vs flex 0
+    assert flex_contacts.any() and np.all(mj_data.contact.dim[: mj_data.ncon][flex_contacts] == 3)
 
 
 @pytest.mark.parametrize("friction, slides", [(0.6, False), (0.2, True)])
@@ -141,14 +142,14 @@ def test_bending_moment_of_a_small_kink_is_ei_times_curvature():
     cable = CableSpec([[0, 0, 1], [2 * length, 0, 1]], 2, radius, 0.01, young=young)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # too stiff to step at this dt; only forces are read here
-        m = mjcable.build(Scene(cable), MODEL).compile()
-    d = mujoco.MjData(m)
+        mj_model = mjcable.build(Scene(cable), MODEL).compile()
+    mj_data = mujoco.MjData(mj_model)
     theta = 1e-3  # rad: turn the last edge about the middle vertex
-    d.qpos[6:9] = length * np.array([math.cos(theta) - 1.0, 0.0, math.sin(theta)])
-    mujoco.mj_forward(m, d)
+    mj_data.qpos[6:9] = length * np.array([math.cos(theta) - 1.0, 0.0, math.sin(theta)])
+    mujoco.mj_forward(mj_model, mj_data)
     # Euler-Bernoulli: moment M = E·I κ with κ = θ / l (Voronoi length l); the end force is F = M / l
     expected = cable.bending_stiffness * theta / length**2
-    force = d.qfrc_passive.reshape(3, 3)[2]
+    force = mj_data.qfrc_passive.reshape(3, 3)[2]
     assert np.linalg.norm(force) == pytest.approx(expected, rel=1e-3)
     assert force[2] < 0  # it pushes the kink back
 
@@ -178,15 +179,16 @@ def test_cantilever_tip_deflection_matches_beam_theory():
 def test_stiff_cable_compiles_straight_and_starts_from_the_keyframe():
     scene = mjcable.scenes.get("hang", young=1e6)
     spec = mjcable.build(scene, MODEL)
-    m = spec.compile()
-    assert m.nkey == 1 and mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, 0) == START_KEY
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
-    sites = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"particle{i}") for i in range(scene.cable.n_particles)]
-    chords = np.diff(d.site_xpos[sites], axis=0)
+    mj_model = spec.compile()
+    assert mj_model.nkey == 1 and mujoco.mj_id2name(mj_model, mujoco.mjtObj.mjOBJ_KEY, 0) == START_KEY
+    mj_data = mujoco.MjData(mj_model)
+    mujoco.mj_forward(mj_model, mj_data)
+    sites = [mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_SITE, f"particle{i}")
+             for i in range(scene.cable.n_particles)]
+    chords = np.diff(mj_data.site_xpos[sites], axis=0)
     np.testing.assert_allclose(chords, np.broadcast_to(chords[0], chords.shape), atol=1e-12)  # straight
-    mujoco.mj_step(m, d, nstep=1000)  # the default pose steps 2 s without warnings
-    assert not np.any(d.warning.number)
+    mujoco.mj_step(mj_model, mj_data, nstep=1000)  # the default pose steps 2 s without warnings
+    assert not np.any(mj_data.warning.number)
 
     sim = mjcable.Simulator(scene, MODEL)
     np.testing.assert_allclose(sim.positions, scene.cable.particles, atol=1e-12)
@@ -260,7 +262,8 @@ def test_socket_holds_when_pushed_gently():
 @pytest.mark.parametrize("self_collision", [False, True])
 def test_self_collision_stacks_a_hairpin_on_itself(self_collision):
     radius = 0.005
-    hairpin = [[-0.3, 0, 0.006], [0.2, 0, 0.006], [0.3, 0, 0.05], [0.2, 0, 0.1], [-0.3, 0, 0.1]]
+    # the curve dips 1 cm below its lower control points at the bend: they sit 1.6 cm up, so it starts above the floor
+    hairpin = [[-0.3, 0, 0.016], [0.2, 0, 0.016], [0.3, 0, 0.06], [0.2, 0, 0.11], [-0.3, 0, 0.11]]
     scene = Scene(CableSpec(hairpin, 60, radius, 0.05, damping=2.0), obstacles=(Floor(),))
     sim = mjcable.Simulator(scene, MODEL, self_collision=self_collision)
     sim.step(1.5)

@@ -1,4 +1,6 @@
 import dataclasses
+import re
+import warnings
 
 import numpy as np
 import pytest
@@ -127,3 +129,73 @@ def test_hang_scene_is_one_metre_over_eighty_centimetres():
         assert scene.cable.length == pytest.approx(1.0, rel=1e-9)
         p = scene.cable.particles
         assert np.linalg.norm(p[-1] - p[0]) == pytest.approx(0.8, rel=1e-12)
+
+
+def test_too_many_segments_is_refused_before_anything_is_allocated():
+    with pytest.raises(ValueError, match="n_segments") as err:
+        cable(n_segments=10**9)
+    assert "1000000000" in str(err.value) and str(mjcable.scene.MAX_SEGMENTS) in str(err.value)
+    with pytest.raises(ValueError, match="n_segments"):
+        cable(n_segments=mjcable.scene.MAX_SEGMENTS + 1)
+
+
+@pytest.mark.slow
+def test_a_straight_cable_of_max_segments_resamples():
+    """A straight 1 m cable of MAX_SEGMENTS segments (100,000) has its equal chords (it was refused as "folding
+    back on itself"): particle i lies i/n of the way along the line."""
+    n = mjcable.scene.MAX_SEGMENTS
+    c = mjcable.CableSpec([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0]], n, 1e-6, 0.1)
+    exact = np.array([0.0, 0.0, 1.0]) + np.arange(n + 1)[:, None] / n * np.array([1.0, 0.0, 0.0])
+    assert np.abs(c.particles - exact).max() < 1e-9
+    assert c.length == pytest.approx(1.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("field, value, bad", [
+    ("obstacles", mjcable.Floor(), mjcable.Floor()),
+    ("pins", mjcable.Pin(0), mjcable.Pin(0)),
+    ("obstacles", "floor", "floor"),
+    ("pins", 0, 0),
+    ("obstacles[0]", [mjcable.Pin(0)], mjcable.Pin(0)),
+])
+def test_scene_wants_sequences_of_pins_and_obstacles(field, value, bad):
+    with pytest.raises(ValueError, match=re.escape(field)) as err:
+        mjcable.Scene(cable(), **{field.split("[")[0]: value})
+    assert repr(bad) in str(err.value)
+
+
+def straight(z, radius=0.005):
+    """A straight 1 m cable along x at height z (m)."""
+    return mjcable.CableSpec([[-0.5, 0.0, z], [0.5, 0.0, z]], 20, radius, 0.1)
+
+
+@pytest.mark.parametrize("obstacle, depth", [
+    (mjcable.Box(size=(0.2, 0.2, 0.1), pos=(0.0, 0.0, 0.92)), 0.025),  # top 2 cm above the centreline, + radius
+    (mjcable.Sphere(radius=0.1, pos=(0.0, 0.0, 1.0)), 0.105),  # the centre of a particle, + radius
+    (mjcable.Floor(pos=(0.0, 0.0, 1.001)), 0.006),
+])
+def test_a_cable_starting_inside_an_obstacle_is_refused(obstacle, depth):
+    with pytest.raises(ValueError, match=r"obstacles\[1\]") as err:
+        mjcable.Scene(straight(1.0), obstacles=(mjcable.Floor(), obstacle))
+    message = str(err.value)
+    assert type(obstacle).__name__ in message
+    assert f"{depth:.4g} m deep" in message
+
+
+def test_a_cable_touching_an_obstacle_is_accepted():
+    """Lying on a surface (its radius above it, up to START_CONTACT_TOLERANCE of round-off) is fine; deeper is not."""
+    r = 0.005
+    tolerance = mjcable.scene.START_CONTACT_TOLERANCE
+    mjcable.Scene(straight(r), obstacles=(mjcable.Floor(),))
+    mjcable.Scene(straight(r - 0.5 * tolerance), obstacles=(mjcable.Floor(),))
+    table = mjcable.Box(size=(0.6, 0.4, 0.02), pos=(0.0, 0.0, 0.68))
+    mjcable.Scene(straight(0.7 + r), obstacles=(table,))
+    with pytest.raises(ValueError, match=r"obstacles\[0\] \(Floor"):
+        mjcable.Scene(straight(r - 2 * tolerance), obstacles=(mjcable.Floor(),))
+
+
+def test_a_radius_larger_than_a_segment_warns():
+    with pytest.warns(UserWarning, match="radius = 0.06 m is larger than a segment .*overlap.*unreliable"):
+        straight(1.0, radius=0.06)  # 1 m in 20 segments of 5 cm
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        straight(1.0, radius=0.04)

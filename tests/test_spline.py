@@ -68,12 +68,29 @@ def test_resample_equal_chords_on_curve(pts, n, kind):
     np.testing.assert_array_equal(p[0], curve.position(0.0))
     np.testing.assert_array_equal(p[-1], curve.position(1.0))
     chords = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    assert np.max(np.abs(chords / chords.mean() - 1.0)) < 1e-9
+    assert np.max(np.abs(chords - chords.mean())) <= chord_tolerance(chords.mean(), n, p)
     # every particle lies on the curve: its distance to a dense sampling is below the sampling's resolution
     dense = curve.position(np.linspace(0, 1, 20001))
     gaps = np.linalg.norm(dense[None] - p[:, None], axis=2).min(axis=1)
     step = np.linalg.norm(np.diff(dense, axis=0), axis=1).max()
     assert gaps.max() <= step
+
+
+def chord_tolerance(chord, n, particles):
+    """The documented accuracy of equal chords: 1e-9 relative, or 4 n ε |x| where floating point cannot do better."""
+    return max(1e-9 * chord, 4 * n * np.finfo(float).eps * np.abs(particles).max())
+
+
+@pytest.mark.parametrize("offset, n", [(0.0, 4_000), (0.0, 10_000), (100.0, 20_000)])
+def test_a_straight_line_resamples_into_many_segments(offset, n):
+    """A straight 1 m line has equal chords at any resolution (these were refused as "folding back" when the
+    march's round-off, n ε |x|, outgrew 1e-9 of the chord): particle i lies i/n of the way along it."""
+    start, end = np.array([offset, 0.0, 0.5]), np.array([offset + 1.0, 0.0, 0.5])
+    p = mjcable.resample(mjcable.CatmullRom([start, end]), n)
+    exact = start + np.arange(n + 1)[:, None] / n * (end - start)
+    assert np.abs(p - exact).max() < 1e-9
+    chords = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    assert np.abs(chords - 1.0 / n).max() <= chord_tolerance(1.0 / n, n, p)
 
 
 @pytest.mark.parametrize(

@@ -45,7 +45,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mjcable.mjcf import joints, world
+from mjcable.mjcf import joints, snap, world
 from mjcable.scene import Scene
 
 __all__ = ["build", "body_name", "plugin_moduli", "POISSON", "PREFIX", "PLUGIN"]
@@ -139,7 +139,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         spec.add_exclude(bodyname1=body_name(i, n), bodyname2=body_name(i + 1, n))
 
     joints.add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
-    return spec
+    return snap.snap_spec(spec)
 
 
 def _reparent(spec: mujoco.MjSpec, root, parent, origin: np.ndarray) -> None:

@@ -63,7 +63,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mjcable.mjcf import world
+from mjcable.mjcf import snap, world
 from mjcable.mjcf.world import START_KEY
 from mjcable.scene import GRAVITY, Scene
 
@@ -197,7 +197,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         mocap = [mocap_pose[b.name] for b in spec.bodies if b.mocap]  # in mocap id order
         extra = dict(mpos=np.ravel([pos for pos, _ in mocap]), mquat=np.ravel([q for _, q in mocap])) if mocap else {}
         spec.add_key(name=START_KEY, qpos=(cable.particles - rest).ravel(), **extra)
-    return spec
+    return snap.snap_spec(spec)
 
 
 def _add_pins(spec: mujoco.MjSpec, scene: Scene, timestep: float, rest: np.ndarray, *, straight: bool) -> dict:

@@ -83,7 +83,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mjcable.mjcf import world
+from mjcable.mjcf import snap, world
 from mjcable.mjcf.world import START_KEY
 from mjcable.scene import Scene
 
@@ -389,7 +389,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
     if straight:  # the root is compiled in its start pose: identity root qpos, then the start shape's ball quats
         root = {"free": [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], "ball": [1.0, 0.0, 0.0, 0.0], None: []}[kind]
         _add_start_key(spec, scene, np.concatenate([root, rel.ravel()]))
-    return spec
+    return snap.snap_spec(spec)
 
 
 def _add_start_key(spec: mujoco.MjSpec, scene: Scene, qpos: np.ndarray) -> None:

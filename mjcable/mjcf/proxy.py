@@ -23,7 +23,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mjcable.mjcf import world
+from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 
 __all__ = ["build", "segment_name", "PROXY_KINDS", "DEFAULT_MARGIN"]
@@ -53,7 +53,7 @@ def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, pr
     Example::
 
         spec = mjcable.build(mjcable.scenes.get("table"), "xpbd")
-        model = spec.compile()
+        mj_model = spec.compile()
     """
     if proxy not in PROXY_KINDS:
         raise ValueError(f"proxy must be one of {PROXY_KINDS}, got {proxy!r}")
@@ -81,7 +81,7 @@ def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, pr
                 spec.add_pair(geomname1=f"obstacle{k}", geomname2=segment_name(i), condim=3, margin=contact_margin)
     for k in range(len(scene.pins)):
         world.add_anchor(spec, scene, k)
-    return spec
+    return snap.snap_spec(spec)
 
 
 def _z_to(d: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ import warnings
 import mujoco
 import numpy as np
 
-from mjcable.mjcf import world
+from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 
 __all__ = ["build", "spring_stiffness", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE"]
@@ -111,7 +111,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
     if self_collision:
         for i in range(n - 1):
             spec.add_exclude(bodyname1=f"cable{i}", bodyname2=f"cable{i + 1}")
-    return spec
+    return snap.snap_spec(spec)
 
 
 def _pin_of(scene: Scene, i: int) -> int:
