@@ -209,9 +209,7 @@ def _size(args, default) -> tuple:
 def _export(args) -> int:
     from mjcable import export
 
-    written, skipped = export.export(args.out)
-    for model, exc in skipped.items():
-        print(f"mjcable export: model {model!r} is not available yet ({type(exc).__name__}: {exc})", file=sys.stderr)
+    written = export.export(args.out)
     failed = 0
     for path in written:
         if args.check:

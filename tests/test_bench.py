@@ -20,7 +20,7 @@ from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Scene, Spher
 
 
 def _scene(*obstacles):
-    cable = CableSpec([[0.0, 0.0, 2.0], [1.0, 0.0, 2.0]], 4, 0.01, 0.1)
+    cable = CableSpec([[0.0, -0.5, 2.0], [1.0, -0.5, 2.0]], 4, 0.01, 0.1)  # clear of every obstacle below
     return Scene(cable, obstacles=obstacles)
 
 

@@ -204,7 +204,7 @@ def test_tilted_table_holds_with_high_friction_and_lets_slide_with_low(model, mu
 
 
 def test_self_collision_keeps_segments_apart():
-    points = [[-0.3, -0.1, 0.006], [0.3, 0.1, 0.006], [0.35, 0.15, 0.05], [0.3, 0.2, 0.08], [-0.3, -0.2, 0.08]]
+    points = [[-0.3, -0.1, 0.021], [0.3, 0.1, 0.021], [0.35, 0.15, 0.065], [0.3, 0.2, 0.095], [-0.3, -0.2, 0.095]]
     cable = mjcable.CableSpec(points, 80, 0.005, 0.1, damping=2.0, friction=0.5)
     scene = mjcable.Scene(cable, obstacles=(mjcable.Floor(),))
     gaps = {}

@@ -37,7 +37,6 @@ import dataclasses
 import math
 from typing import Dict, Optional, Sequence
 
-import mujoco as mj
 import numpy as np
 from dm_control import mujoco
 from dm_control.mujoco import wrapper
@@ -48,6 +47,7 @@ from dm_env import specs
 
 from mjcable import catalog, scenes
 from mjcable.envs.workspace import Workspace
+from mjcable.render.overlays import add_centreline
 from mjcable.scene import Scene
 from mjcable.simulator import Simulator
 
@@ -71,7 +71,6 @@ MAX_GRIPPER_SPEED = 0.5  # m/s per axis: the action bound is this times the cont
 _ACTION_RTOL = 1e-6  # relative slack on the action bounds (float32 actions exactly at a bound round past it)
 _STEP_RTOL = 1e-8  # relative slack when checking that the control timestep is a whole number of dt
 _DEFAULT_DT = 0.002  # s, the Simulator's default step
-_CABLE_RGBA = np.array([0.85, 0.25, 0.12, 1.0], dtype=np.float32)  # mjcf/world.py's "cable" material
 # Settings the environments give every model of a catalogue family unless the caller sets them (measurements in the
 # module docstring: at 4 substeps the particle solvers' cable stretches ~2 % under unplug's pull, which then never
 # reaches the socket's release force).
@@ -248,15 +247,7 @@ class CablePhysics(mujoco.Physics):
 
 def _draw_centreline(physics: CablePhysics, scn) -> None:
     """Append the centreline to the ``mjvScene`` as capsules in the cable's colour (per frame, not per step)."""
-    points = physics.centreline()
-    radius = physics.scene.cable.radius
-    geoms = mj.MjvScene.geoms.__get__(scn)  # all maxgeom slots (dm_control's subclass shows only the first ngeom)
-    eye = np.eye(3).ravel()
-    for i in range(min(len(points) - 1, scn.maxgeom - scn.ngeom)):
-        g = geoms[scn.ngeom]
-        mj.mjv_initGeom(g, mj.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), eye, _CABLE_RGBA)
-        mj.mjv_connector(g, mj.mjtGeom.mjGEOM_CAPSULE, radius, points[i], points[i + 1])
-        scn.ngeom += 1
+    add_centreline(scn, physics.centreline(), physics.scene.cable.radius)
 
 
 class CableTask(base.Task):
