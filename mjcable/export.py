@@ -5,7 +5,7 @@ Each file is ``{out}/{scene}_{model}.xml``, written atomically from ``mjcable.bu
 one-line comment that says where it came from. Every file loads with ``mujoco.MjModel.from_xml_path`` and
 ``dm_control.mujoco.Physics.from_xml_path`` and steps from its default pose without MuJoCo warnings; where a model
 compiles in another pose than the scene's start (a flex with bending compiles straight), the file holds a keyframe
-named ``start`` (:data:`mjcable.mjcf.START_KEY`) with the start pose. MuJoCo writes numbers with 6 significant digits,
+named ``start`` (:data:`mjcable.mjcf.world.START_KEY`) with the start pose. MuJoCo writes numbers with 6 significant digits,
 so positions in the files are rounded to about a micrometre.
 
 The generators snap round-off (:mod:`mjcable.mjcf.snap`), so the files are the same on every machine; whether a

@@ -1,5 +1,5 @@
-"""The README says what the code does: every dotted ``mjcable.…`` name in it resolves, and its table of default
-settings is the catalogue's."""
+"""The README says what the code does: every dotted ``mjcable.…`` name in it (and in the package's docstrings)
+resolves by attribute access, and its table of default settings is the catalogue's."""
 
 import ast
 import dataclasses
@@ -11,7 +11,9 @@ import pytest
 import mjcable
 from mjcable import catalog
 
-README = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
+ROOT = Path(__file__).resolve().parent.parent
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+SOURCES = sorted((ROOT / "mjcable").rglob("*.py"))
 DOTTED = re.compile(r"(?<![\w/.-])mjcable(?:\.[A-Za-z_]\w*)+")
 DEFAULTS_HEADING = "### Default settings"
 
@@ -20,8 +22,12 @@ def test_readme_names_some_dotted_names():
     assert len(set(DOTTED.findall(README))) >= 10
 
 
-@pytest.mark.parametrize("name", sorted(set(DOTTED.findall(README))))
-def test_every_dotted_name_in_the_readme_resolves_by_attribute_access(name):
+def _docstring_names() -> list:
+    return sorted({name for path in SOURCES for name in DOTTED.findall(path.read_text(encoding="utf-8"))})
+
+
+@pytest.mark.parametrize("name", sorted(set(DOTTED.findall(README))) + _docstring_names())
+def test_every_dotted_name_in_the_readme_and_docstrings_resolves_by_attribute_access(name):
     obj = mjcable
     for part in name.split(".")[1:]:
         assert hasattr(obj, part), f"{name}: {obj!r} has no attribute {part!r}"

@@ -27,7 +27,7 @@ Mapping from the physical cable (MuJoCo 3.17; the numbers below were measured on
   ``∫ E·I κ²/2 ds`` with κ = θ / l₀, so ``young = cable.young`` and ``radius = cable.radius`` give
   ``E·I = cable.bending_stiffness`` exactly. The rest shape is always straight (the compiler rejects a bent 1D flex
   with young > 0): a stiff cable compiles straight along ``particles[1] - particles[0]`` from particle 0 and the
-  keyframe :data:`~mjcable.mjcf.START_KEY` poses the start shape (qpos = each vertex's displacement from its
+  keyframe :data:`~mjcable.mjcf.world.START_KEY` poses the start shape (qpos = each vertex's displacement from its
   straight position). A limp cable (young = 0) compiles in its start shape.
 * **the stability rules**: MuJoCo integrates 1D flex bending and edge springs explicitly, even with
   ``implicitfast``. Gershgorin's bound on M⁻¹K gives ω²_max ≤ (4 k_s + 16 E·I / l₀³) / mᵢ and semi-implicit Euler

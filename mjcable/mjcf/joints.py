@@ -15,7 +15,7 @@ Mapping from the physical cable:
   over one segment. A ball joint's stiffness is isotropic, so it also acts on twist: the chain's torsional
   stiffness is E·I / l₀, not the rod's G·J / l₀ = E·I / ((1 + ν) l₀) (a third stiffer in twist at ν = 0.5).
   E = 0 is a limp chain compiled in its start shape. With E > 0 the chain compiles straight (a ball joint's spring
-  reference is qpos0), along the start tangent, and the keyframe ``mjcable.mjcf.START_KEY`` poses the start
+  reference is qpos0), along the start tangent, and the keyframe ``mjcable.mjcf.world.START_KEY`` poses the start
   shape (each ball quaternion is the minimal rotation between consecutive segment directions, in the parent's
   frame);
 * damping rate c (1/s): MuJoCo's medium viscosity (:func:`segment_viscosity`), which drags every segment with
