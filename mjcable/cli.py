@@ -6,8 +6,10 @@ Subcommands::
     mjcable render --scene S --model M -o out.mp4  one model (or several side by side, or "all") on a built-in scene
     mjcable render --env TASK --model M --policy random -o out.mp4   an episode of a dm_control task (mjcable.envs)
     mjcable export [--out models] [--check]        MJCF of every native model x built-in scene
-    mjcable bench [--quick] [--out DIR] [--jobs N] [--models ...]   work-precision benchmarks (mjcable.bench)
-    mjcable stress [--quick] [--out DIR] [--jobs N] [--models ...]  stability stress tests (mjcable.bench)
+    mjcable bench [--quick] [--out DIR] [--jobs N | --scheduler ADDRESS] [--models ...]
+                                                   work-precision benchmarks (mjcable.bench) on a Dask cluster
+    mjcable stress [--quick] [--out DIR] [--jobs N | --scheduler ADDRESS] [--models ...]
+                                                   stability stress tests (mjcable.bench) on a Dask cluster
 
 Exit status: 0 on success, 1 when some model failed (the rest still ran), 2 on bad arguments.
 """
@@ -110,7 +112,13 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=helptext, description=helptext)
         p.add_argument("--quick", action="store_true", help="reduced sweep")
         p.add_argument("--out", default=None, help=f"output folder (default: {name}_out)")
-        p.add_argument("--jobs", type=_positive_int, default=None, help="worker processes (default: CPU count)")
+        workers = p.add_mutually_exclusive_group()
+        workers.add_argument("--jobs", type=_positive_int, default=None,
+                             help="worker processes of a local Dask cluster (default: CPU count; 1: no cluster, "
+                                  "one run after the other in this process)")
+        workers.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                             help="run on the existing Dask cluster whose scheduler is at ADDRESS (e.g. "
+                                  "tcp://10.0.0.5:8786); this process still writes every output")
         p.add_argument("--models", nargs="+", default=None, metavar="MODEL", help="model labels to run (default all)")
         p.set_defaults(func=_bench_command(name))
     return parser

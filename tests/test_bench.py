@@ -6,15 +6,19 @@ No timing asserts."""
 import contextlib
 import csv
 import dataclasses
+import logging
 import math
+
+import distributed
 
 import numpy as np
 import pytest
 
 import mjcable
-from mjcable import catalog, metrics
+from mjcable import catalog, cli, metrics
 from mjcable.bench import accuracy, case, plots, results, scenarios, stress, sweep
 from mjcable.bench.case import Case
+from mjcable.bench.outcome import OUTCOMES
 from mjcable.bench.runner import run_case
 from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Scene, Sphere
 
@@ -272,12 +276,94 @@ def test_sweep_writes_csv_and_resumes(tmp_path):
     assert len(results.latest_rows(results.read_rows(path))) == len(case.MODEL_LABELS)
 
 
-def test_sweep_in_worker_processes_knows_a_model_registered_here(tmp_path):
+@contextlib.contextmanager
+def _cluster(processes):
+    """A Dask cluster of one single-threaded worker: a process listening on 127.0.0.1, or (``processes=False``) a
+    thread of this process reached in memory."""
+    where = {"host": "127.0.0.1"} if processes else {}
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=processes, dashboard_address=None,
+                                  silence_logs=logging.ERROR, **where) as cluster:
+        yield cluster
+
+
+def test_sweep_on_a_dask_cluster_writes_rows_resumes_and_caps_time(tmp_path):
+    path = tmp_path / "out" / "bench.csv"
+    saved = Case("catenary", "xpbd", 0.005, n_segments=8, params=(("duration", 0.05), ("save_positions", 1)))
+    # 10 s of simulated time (50 000 MuJoCo steps): far more than a 0.1 s cap allows, checked on the worker's
+    # thread, where no signal could interrupt it
+    capped = Case("catenary", "springs", 0.002, params=(("duration", 10.0),), time_cap=0.1)
+    cases = _tiny_cases(["springs", "xpbd"]) + [saved, capped]
+    with _cluster(processes=False) as cluster, distributed.Client(cluster) as client:
+        rows = sweep.run_sweep(cases, path, scheduler=client, progress=False)
+        assert sorted(r["key"] for r in rows) == sorted(c.key for c in cases)
+        written = {r["key"]: r for r in results.read_rows(path)}
+        assert set(written) == {c.key for c in cases}
+        for c in cases[:3]:
+            assert written[c.key]["outcome"] == "stable", written[c.key]
+            assert written[c.key]["sim_time"] == pytest.approx(0.05)
+            assert written[c.key]["error"] < 0.05  # the start shape already lies near the catenary
+        assert written[capped.key]["outcome"] == "diverged"
+        assert "time cap" in written[capped.key]["reason"]
+        assert written[capped.key]["sim_time"] < 10.0
+        # the client saved the final positions the worker sent back: a hanging cable between its pins
+        x = np.load(results.positions_path(path, saved.key))
+        assert x.shape == (9, 3)
+        assert np.all(x[:, 2] <= max(x[0, 2], x[-1, 2]) + 1e-9)
+
+        # resume: nothing to do; after losing the last row, only that run again
+        assert sweep.run_sweep(cases, path, scheduler=client, progress=False) == []
+        lines = path.read_text().splitlines()
+        path.write_text("\n".join(lines[:-1]) + "\n")
+        again = sweep.run_sweep(cases, path, scheduler=client, progress=False)
+    assert [r["key"] for r in again] == [rows[-1]["key"]]
+    assert len(results.latest_rows(results.read_rows(path))) == len(cases)
+
+
+def test_local_jobs_and_a_scheduler_exclude_each_other(tmp_path):
+    with pytest.raises(ValueError, match="jobs"):
+        sweep.run_sweep(_tiny_cases(["springs"]), tmp_path / "b.csv", jobs=2, scheduler="tcp://127.0.0.1:1")
+    with pytest.raises(ValueError, match="scheduler"):
+        sweep.run_sweep(_tiny_cases(["springs"]), tmp_path / "b.csv", scheduler=8786)
+    assert not (tmp_path / "b.csv").exists()
+    # the command line: a local cluster of --jobs workers (default: the CPU count), or --scheduler, never both
+    parser = cli.build_parser()
+    assert sweep.workers_of(parser.parse_args(["stress", "--scheduler", "tcp://127.0.0.1:1"])) == (
+        1, "tcp://127.0.0.1:1")
+    assert sweep.workers_of(parser.parse_args(["bench", "--jobs", "3"])) == (3, None)
+    assert sweep.workers_of(parser.parse_args(["bench"])) == (sweep.default_jobs(), None)
+    with pytest.raises(SystemExit):
+        parser.parse_args(["bench", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"])
+
+
+def test_sweep_on_worker_processes_runs_a_model_registered_here(tmp_path):
+    # The worker is a process of its own that never saw "throwaway": each task carries the client's catalogue entry.
     path = tmp_path / "bench.csv"
-    with _registered("throwaway"):
-        rows = sweep.run_sweep(_tiny_cases(["springs", "throwaway"]), path, jobs=2, progress=False)
+    with _registered("throwaway"), _cluster(processes=True) as cluster:
+        rows = sweep.run_sweep(_tiny_cases(["springs", "throwaway"]), path, scheduler=cluster.scheduler_address,
+                               progress=False)
     assert sorted(r["model"] for r in rows) == ["springs", "throwaway"]
-    assert all(r["outcome"] == "stable" for r in rows), rows
+    assert all(r["outcome"] == "stable" and r["error"] < 0.05 for r in rows), rows
+    assert len(results.read_rows(path)) == 2
+
+
+@pytest.mark.slow
+def test_cli_bench_on_a_scheduler_runs_a_model_registered_here(tmp_path, capsys):
+    out = tmp_path / "bench"
+    with _registered("throwaway"), _cluster(processes=True) as cluster:
+        status = cli.main(["bench", "--quick", "--scheduler", cluster.scheduler_address, "--out", str(out),
+                           "--models", "throwaway"])
+        expected = {c.key for c in accuracy.accuracy_cases(quick=True, models=["throwaway"])
+                    + accuracy.stiffness_cases(models=["throwaway"])
+                    + accuracy.skip_cases(models=["throwaway"], repeats=2)}
+    assert status == 0
+    rows = results.read_rows(out / "bench.csv")
+    assert {r["key"] for r in rows} == expected and len(rows) == len(expected)
+    assert {r["model"] for r in rows} == {"throwaway"}
+    catenary = [r for r in rows if r["scenario"] == "catenary"]
+    assert catenary and all(r["outcome"] == "stable" and r["error"] < 0.05 for r in catenary), catenary
+    assert all(r["outcome"] in OUTCOMES for r in rows)
+    assert cluster.scheduler_address in (out / "pareto.md").read_text()
+    assert f"{len(expected)} runs" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("model", ["springs", "xpbd"])

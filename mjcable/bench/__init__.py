@@ -7,7 +7,9 @@ Modules: :mod:`~mjcable.bench.case` (a run and the model labels), :mod:`~mjcable
 
 ``mjcable bench`` (:func:`cli_bench`) runs every model on the accuracy scenarios and writes a CSV, work-precision
 plots and Pareto tables; ``mjcable stress`` (:func:`cli_stress`) maps where each model diverges or tunnels.
-``python -m mjcable.bench [bench|stress] [--quick] [--out DIR] [--jobs N]`` runs either without the CLI.
+``python -m mjcable.bench [bench|stress] [--quick] [--out DIR] [--jobs N | --scheduler ADDRESS]`` runs either
+without the CLI. The runs go to ``dask.distributed`` (:mod:`~mjcable.bench.sweep`): a local cluster of ``--jobs``
+worker processes, or an existing cluster at ``--scheduler``; this process writes the outputs.
 
 Example::
 
@@ -45,17 +47,24 @@ __all__ = [
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add the flags shared by ``bench`` and ``stress``: ``--quick``, ``--out``, ``--jobs``, ``--models``."""
+    """Add the flags shared by ``bench`` and ``stress``: ``--quick``, ``--out``, ``--jobs`` or ``--scheduler``,
+    ``--models``."""
     parser.add_argument("--quick", action="store_true", help="reduced sweep (bench < 4 min, stress < 10 min)")
     parser.add_argument("--out", default=None, help="output folder (default bench_out / stress_out)")
-    parser.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPU count)")
+    workers = parser.add_mutually_exclusive_group()
+    workers.add_argument("--jobs", type=int, default=None,
+                         help="worker processes of a local Dask cluster (default: CPU count; 1: in this process)")
+    workers.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                         help="run on the existing Dask cluster whose scheduler is at ADDRESS; this process writes "
+                              "every output")
     parser.add_argument("--models", nargs="+", default=None, choices=list(MODEL_LABELS),
                         help="model labels to run (default all): every catalogue model, plus "
                              + ", ".join(f"{k} ({m} with {s})" for k, (m, s) in MODEL_LABELS.items() if s))
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    """``python -m mjcable.bench [bench|stress] [--quick] [--out DIR] [--jobs N] [--models ...]``."""
+    """``python -m mjcable.bench [bench|stress] [--quick] [--out DIR] [--jobs N | --scheduler ADDRESS]
+    [--models ...]``."""
     parser = argparse.ArgumentParser(prog="python -m mjcable.bench", description=__doc__.splitlines()[0])
     parser.add_argument("command", nargs="?", default="bench", choices=("bench", "stress"))
     add_arguments(parser)

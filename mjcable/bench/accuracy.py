@@ -186,15 +186,18 @@ def _skip_markdown(rows: Sequence[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_bench(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[Sequence[str]] = None,
-              scenario_names: Optional[Sequence[str]] = None, progress: bool = True,
-              extras: bool = True) -> List[dict]:
+def run_bench(out: str, *, quick: bool = False, jobs: int = 1, scheduler=None,
+              models: Optional[Sequence[str]] = None, scenario_names: Optional[Sequence[str]] = None,
+              progress: bool = True, extras: bool = True) -> List[dict]:
     """Run (or resume) the benchmark into ``out`` and write its plots and tables.
 
     Args:
       out: output folder (created).
       quick: the reduced sweep.
-      jobs: worker processes.
+      jobs: worker processes of the local Dask cluster (1: none, the runs go one after the other in this process);
+        see :func:`mjcable.bench.sweep.run_sweep`.
+      scheduler: an existing Dask cluster to run on instead (its scheduler's address, or a
+        :class:`distributed.Client`); this process still writes every output.
       models: model labels (default all of :data:`mjcable.bench.case.MODEL_LABELS`).
       scenario_names: accuracy scenarios (default all; ``--quick``: all, with one run on the two not in
         :data:`QUICK_SCENARIOS`).
@@ -214,16 +217,17 @@ def run_bench(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[
         if not quick:
             cases += convergence_cases(models=models)
     start = time.perf_counter()
-    sweep.run_sweep(cases, csv_path, jobs=jobs, desc="bench", progress=progress)
+    sweep.run_sweep(cases, csv_path, jobs=jobs, scheduler=scheduler, desc="bench", progress=progress)
     # A folder may hold other sweeps (quick and full keys differ): report the runs of this one.
     keys = {c.key for c in cases}
     rows = [r for r in results.latest_rows(results.read_rows(csv_path)) if r["key"] in keys]
-    write_reports(rows, out, csv_path=csv_path, wall=time.perf_counter() - start, jobs=jobs, quick=quick)
+    write_reports(rows, out, csv_path=csv_path, wall=time.perf_counter() - start, jobs=jobs, quick=quick,
+                  scheduler=scheduler)
     return rows
 
 
 def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float = math.nan, jobs: int = 1,
-                  quick: bool = False) -> None:
+                  quick: bool = False, scheduler=None) -> None:
     """Write the work-precision PNGs, the stiffness grid and ``pareto.md`` from the rows."""
     accuracy = [r for r in rows if r["scenario"] in scenarios.SCENARIOS
                 and not json.loads(r.get("params") or "{}").get("save_positions")]
@@ -245,7 +249,7 @@ def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float 
             and r["scenario"] in CONVERGENCE_SCENARIOS]
     md = [f"# mjcable bench{' --quick' if quick else ''}\n",
           f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s), {platform.processor() or platform.platform()}; "
-          f"{jobs} worker process(es); {len(rows)} runs in the CSV"
+          f"ran on {sweep.describe_workers(jobs=jobs, scheduler=scheduler)}; {len(rows)} runs in the CSV"
           + (f"; this call took {wall:.0f} s wall time." if math.isfinite(wall) else "."),
           "",
           "Errors: `catenary`, `cantilever`, `table`, `drape`: RMS distance (m) of the particles to the reference "
@@ -278,10 +282,10 @@ def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float 
 
 def cli_bench(args) -> int:
     """Entry point of ``mjcable bench``: ``args`` has ``quick`` (bool), ``out`` (folder or None) and ``jobs``
-    (int or None); optional ``models`` and ``scenarios`` (lists of names)."""
+    (int or None); optional ``scheduler`` (address or None), ``models`` and ``scenarios`` (lists of names)."""
     out = getattr(args, "out", None) or "bench_out"
-    jobs = getattr(args, "jobs", None) or sweep.default_jobs()
-    rows = run_bench(out, quick=bool(getattr(args, "quick", False)), jobs=int(jobs),
+    jobs, scheduler = sweep.workers_of(args)
+    rows = run_bench(out, quick=bool(getattr(args, "quick", False)), jobs=jobs, scheduler=scheduler,
                      models=getattr(args, "models", None), scenario_names=getattr(args, "scenarios", None))
     counts = {o: sum(r["outcome"] == o for r in rows) for o in OUTCOMES}
     print(f"wrote {os.path.join(out, 'bench.csv')} ({len(rows)} runs: "

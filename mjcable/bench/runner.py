@@ -1,14 +1,17 @@
 """Running one :class:`~mjcable.bench.case.Case`: build the simulator, step it under a wall-clock cap, sample the
 state, classify the outcome (:mod:`mjcable.bench.outcome`) and measure the error; one CSV row
 (:mod:`mjcable.bench.results`) per case.
+
+The time cap is a deadline checked in the runner's own loop (after the build and after every sample of the state,
+i.e. every :data:`SAMPLE_INTERVAL` of simulated time or every step, whichever is longer), not a signal: it works in
+any thread, e.g. on a Dask worker's thread (:mod:`mjcable.bench.sweep`). It counts from the timed build; the
+untimed warm-up before it (JIT compilation or loading numba's cache) is not charged to the case. A single build or
+step is not interrupted: the cap takes effect at the next check.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
-import signal
-import threading
 import time
 import warnings
 from typing import Iterable
@@ -31,37 +34,14 @@ SAMPLE_INTERVAL = 0.005  # s of simulated time between samples of the state (at 
 
 
 class _TimeCap(BaseException):
-    """Raised by the wall-clock alarm; a BaseException, so that no library's ``except Exception`` swallows it."""
+    """Raised when a run passes its deadline; a BaseException, so that no ``except Exception`` on the way out
+    classifies it as a failure of the model."""
 
 
-@contextlib.contextmanager
-def _time_cap(seconds: float):
-    """Raise :class:`_TimeCap` in this (main) thread after ``seconds`` of wall time (SIGALRM), where possible."""
-    if not (hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()):
-        yield
-        return
-
-    def handler(signum, frame):
+def _check_deadline(deadline: float) -> None:
+    """Raise :class:`_TimeCap` when the wall clock (``time.perf_counter``) has passed ``deadline``."""
+    if time.perf_counter() > deadline:
         raise _TimeCap()
-
-    previous = signal.signal(signal.SIGALRM, handler)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, previous)
-
-
-def _caused_by_time_cap(exc: BaseException) -> bool:
-    """Whether the alarm interrupted compiled code (numba, MuJoCo) and came back wrapped, e.g. as SystemError."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, _TimeCap):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
 
 
 def run_case(case: Case) -> dict:
@@ -82,8 +62,7 @@ def run_case(case: Case) -> dict:
     row["error_kind"] = scenario.error_kind
     params = dict(case.params)
     try:
-        with _time_cap(case.time_cap):
-            _run(case, model, {**settings, **dict(case.settings)}, scenario, params, row)
+        _run(case, model, {**settings, **dict(case.settings)}, scenario, params, row)
     except _TimeCap:
         row.update(outcome="diverged", reason=f"over its time cap of {case.time_cap:g} s wall time "
                                               f"(reached {row['sim_time']:.4g} s simulated)")
@@ -100,17 +79,15 @@ def _run(case: Case, model: str, settings: dict, scenario, params: dict, row: di
             warnings.simplefilter("ignore")  # e.g. springs capping an unreachable stiffness: recorded via strain
             _warm_up(scene, model, case.dt, settings)
             t0 = time.perf_counter()
+            deadline = t0 + case.time_cap
             sim = Simulator(scene, model, dt=case.dt, **settings)
         if scenario.setup is not None:
             scenario.setup(sim, params)
         row["build_s"] = time.perf_counter() - t0
         building = False
-        _simulate(case, scenario, params, scene, sim, row)
-    except _TimeCap:
-        raise
+        _check_deadline(deadline)
+        _simulate(case, scenario, params, scene, sim, row, deadline)
     except Exception as exc:  # noqa: BLE001 - every failure becomes a classified row (defects re-raised)
-        if _caused_by_time_cap(exc):
-            raise _TimeCap() from exc
         outcome, reason = classify_exception(exc, building=building)
         row.update(outcome=outcome, reason=reason)
 
@@ -120,9 +97,8 @@ def _warm_up(scene, model: str, dt: float, settings: dict) -> None:
     the timed stepping; failures are left for the real run to report."""
     try:
         Simulator(scene, model, dt=dt, **settings).step()
-    except Exception as exc:  # noqa: BLE001
-        if _caused_by_time_cap(exc):
-            raise _TimeCap() from exc
+    except Exception:  # noqa: BLE001 - failures are left for the timed build to report
+        pass
 
 
 def warm_up_models(labels: Iterable[str]) -> None:
@@ -149,7 +125,7 @@ def _limits(scenario, params: dict, sim, scale: float) -> Limits:
                   clock=RESET_TOLERANCE * sim.dt if sim.family == "native" else math.inf)
 
 
-def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict) -> None:
+def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadline: float) -> None:
     dt = case.dt
     duration = params.get("duration", scenario.quick_duration if case.quick else scenario.duration)
     duration = float(duration) + scenario.drive_end(params)
@@ -170,7 +146,6 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict) -> None
     times, com_x = [0.0], [float(np.dot(masses, x[:, 0]) / masses.sum())]
     step_wall = 0.0
     steps = 0
-    deadline = time.perf_counter() + case.time_cap
     reason, outcome = "", "stable"
     try:
         while steps < total_steps:
@@ -205,15 +180,10 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict) -> None
             if verdict is not None:
                 outcome, reason = verdict
                 break
-            if time.perf_counter() > deadline:
-                raise _TimeCap()
+            _check_deadline(deadline)
     except SimulationDivergedError as exc:
         outcome, reason = "diverged", exc.reason
-    except _TimeCap:
-        raise
     except Exception as exc:  # noqa: BLE001 - classified (defects re-raised)
-        if _caused_by_time_cap(exc):
-            raise _TimeCap() from exc
         outcome, reason = classify_exception(exc, building=False)
     row.update(outcome=outcome, reason=reason, max_strain=max_strain, max_penetration=max_pen,
                step_wall_s=step_wall, sim_time=steps * dt, steps=steps,

@@ -58,9 +58,12 @@ def stress_cases(*, quick: bool, models: Optional[Sequence[str]] = None) -> List
     return out
 
 
-def run_stress(out: str, *, quick: bool = False, jobs: int = 1, models: Optional[Sequence[str]] = None,
-               progress: bool = True) -> List[dict]:
+def run_stress(out: str, *, quick: bool = False, jobs: int = 1, scheduler=None,
+               models: Optional[Sequence[str]] = None, progress: bool = True) -> List[dict]:
     """Run (or resume) the stress sweep into ``out``; write the stability maps and ``stress.md``.
+
+    ``jobs`` (local Dask worker processes; 1: in this process) and ``scheduler`` (an existing Dask cluster) are
+    those of :func:`mjcable.bench.sweep.run_sweep`; this process writes every output.
 
     Returns:
       The latest row per run of ``stress.csv``.
@@ -70,7 +73,7 @@ def run_stress(out: str, *, quick: bool = False, jobs: int = 1, models: Optional
     csv_path = os.path.join(out, "stress.csv")
     start = time.perf_counter()
     cases = stress_cases(quick=quick, models=models)
-    sweep.run_sweep(cases, csv_path, jobs=jobs, desc="stress", progress=progress)
+    sweep.run_sweep(cases, csv_path, jobs=jobs, scheduler=scheduler, desc="stress", progress=progress)
     wall = time.perf_counter() - start
     keys = {c.key for c in cases}  # the folder may hold other sweeps: report this one
     rows = [r for r in results.latest_rows(results.read_rows(csv_path)) if r["key"] in keys]
@@ -78,7 +81,8 @@ def run_stress(out: str, *, quick: bool = False, jobs: int = 1, models: Optional
         plots.stability_map(rows, model, os.path.join(out, f"stability_{model}.png"))
 
     md = [f"# mjcable stress{' --quick' if quick else ''}\n",
-          f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s); {jobs} worker process(es); this call took "
+          f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s); ran on "
+          f"{sweep.describe_workers(jobs=jobs, scheduler=scheduler)}; this call took "
           f"{wall:.0f} s wall time. Families: stiffness (E·A in N, drape), segments (n_segments, table drop), "
           "speed (gripper yank in m/s), load (end mass / cable mass, hanging cable).\n",
           plots.outcome_markdown(rows)]
@@ -88,10 +92,11 @@ def run_stress(out: str, *, quick: bool = False, jobs: int = 1, models: Optional
 
 
 def cli_stress(args) -> int:
-    """Entry point of ``mjcable stress``: ``args`` has ``quick``, ``out`` and ``jobs`` (optional ``models``)."""
+    """Entry point of ``mjcable stress``: ``args`` has ``quick``, ``out`` and ``jobs`` (optional ``scheduler`` and
+    ``models``)."""
     out = getattr(args, "out", None) or "stress_out"
-    jobs = getattr(args, "jobs", None) or sweep.default_jobs()
-    rows = run_stress(out, quick=bool(getattr(args, "quick", False)), jobs=int(jobs),
+    jobs, scheduler = sweep.workers_of(args)
+    rows = run_stress(out, quick=bool(getattr(args, "quick", False)), jobs=jobs, scheduler=scheduler,
                       models=getattr(args, "models", None))
     counts = {o: sum(r["outcome"] == o for r in rows) for o in OUTCOMES}
     print(f"wrote {os.path.join(out, 'stress.csv')} ({len(rows)} runs: "
