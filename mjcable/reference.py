@@ -11,6 +11,11 @@ Closed forms and well-posed boundary-value problems, none of which runs a cable 
 * :func:`cantilever`: the heavy cantilever (Euler elastica under its own weight, clamped horizontally), solved with
   ``scipy.integrate.solve_bvp``; it tends to beam theory's tip deflection q L⁴ / (8 E I) for small loads.
 * :func:`free_fall`: z(t) = z₀ + v₀ t − g t² / 2.
+* :func:`capstan_ratio`, :func:`heavy_capstan_beta`, :func:`heavy_capstan_ratio` and
+  :func:`heavy_capstan_long_leg`: the capstan law e^{μθ} and its heavy-rope form for a rope hanging over a
+  horizontal peg, (L_long − β) / (L_short + β) < e^{μπ} with β = 2 μ R_c / (1 + μ²).
+* :func:`incline_acceleration`: Coulomb's sliding acceleration on an incline, g (sin θ − μ cos θ), or 0 while
+  tan θ ≤ μ (it sticks).
 * :func:`table_rest` and :func:`drape_rest_distance`: the ideal rest states of the ``table`` and ``drape`` scenes
   (a uniform fall with sticking friction; two vertical strands hanging from the peg), and :func:`converged`, which
   shows a model's finest setting converged by halving ``dt``.
@@ -27,6 +32,8 @@ from typing import Callable
 import numpy as np
 from scipy import integrate, optimize, special
 
+from mjcable import _validate
+
 __all__ = [
     "G",
     "BESSEL_Z1",
@@ -42,6 +49,11 @@ __all__ = [
     "cantilever",
     "beam_tip_deflection",
     "free_fall",
+    "capstan_ratio",
+    "heavy_capstan_beta",
+    "heavy_capstan_ratio",
+    "heavy_capstan_long_leg",
+    "incline_acceleration",
     "table_rest",
     "drape_rest_curve",
     "drape_rest_distance",
@@ -428,6 +440,61 @@ def free_fall(t, z0: float, v0: float = 0.0, *, g: float = G) -> np.ndarray:
     """Height z(t) = z₀ + v₀ t − g t² / 2 in metres at times ``t`` (seconds)."""
     t = np.asarray(t, dtype=np.float64)
     return z0 + v0 * t - 0.5 * g * t**2
+
+
+# ------------------------------------------------------------------------------------------------ friction laws
+
+
+def capstan_ratio(mu: float, theta: float = math.pi) -> float:
+    """The capstan (Euler-Eytelwein) law for a weightless rope: e^{μθ}, the largest ratio of the tensions at the
+    two ends of a rope wrapped ``theta`` radians (>= 0) around a fixed round post with friction ``mu`` (>= 0)."""
+    return math.exp(_validate.number("mu", mu, low=0.0) * _validate.number("theta", theta, low=0.0, unit="rad"))
+
+
+def heavy_capstan_beta(mu: float, radius: float) -> float:
+    """β = 2 μ R_c / (1 + μ²) in metres: the heavy-rope capstan's correction of the leg lengths.
+
+    A uniform rope of weight w per metre hangs over a horizontal round peg, in contact over the upper half circle
+    of centreline radius R_c (the peg's radius plus the rope's), both legs vertical. With φ the angle from the
+    horizontal through the peg's axis (−π/2 at the short leg's tangent point, π/2 at the long one's), the tension on
+    the arc at the point of slipping obeys dT/dφ = μ (T + w R_c cos φ) − w R_c sin φ (normal force per angle
+    T + w R_c cos φ, tangential weight w R_c sin φ). Its solution T = C e^{μφ} + w R_c ((1 − μ²) cos φ + 2 μ sin φ)
+    / (1 + μ²) gives T(π/2) − wβ = e^{μπ} (T(−π/2) + wβ), with T = w L at each tangent point.
+
+    Args:
+      mu: Coulomb friction coefficient (>= 0).
+      radius: R_c in metres, the radius of the rope's centreline around the peg's axis (> 0).
+    """
+    mu = _validate.number("mu", mu, low=0.0)
+    return 2.0 * mu * _check_positive("radius", radius) / (1.0 + mu * mu)
+
+
+def heavy_capstan_ratio(long: float, short: float, mu: float, radius: float) -> float:
+    """(L_long − β) / (L_short + β) (:func:`heavy_capstan_beta`) for legs ``long`` and ``short`` in metres below
+    the peg's axis, ``mu`` and R_c = ``radius`` (m): the rope holds while this is below e^{μπ}."""
+    beta = heavy_capstan_beta(mu, radius)
+    return (_check_positive("long", long) - beta) / (_check_positive("short", short) + beta)
+
+
+def heavy_capstan_long_leg(short: float, mu: float, radius: float, *, factor: float = 1.0) -> float:
+    """The long leg in metres at which :func:`heavy_capstan_ratio` equals ``factor`` · e^{μπ} (``short`` and R_c =
+    ``radius`` in metres): for ``factor`` = 1 the longest that holds, L_long = e^{μπ} (L_short + β) + β."""
+    beta = heavy_capstan_beta(mu, radius)
+    return _check_positive("factor", factor) * capstan_ratio(mu) * (_check_positive("short", short) + beta) + beta
+
+
+def incline_acceleration(mu: float, tilt: float, *, g: float = G) -> float:
+    """Coulomb's acceleration in m/s² of a body released at rest on a plane tilted ``tilt`` radians from the
+    horizontal: g (sin θ − μ cos θ) when tan θ > μ (it slides down the slope), else 0 (static friction holds it).
+
+    Args:
+      mu: friction coefficient (>= 0).
+      tilt: θ in radians, in [0, π/2).
+      g: gravity in m/s².
+    """
+    mu = _validate.number("mu", mu, low=0.0)
+    tilt = _validate.number("tilt", tilt, low=0.0, high=math.pi / 2, high_open=True, unit="rad")
+    return max(_check_positive("g", g) * (math.sin(tilt) - mu * math.cos(tilt)), 0.0)
 
 
 # ---------------------------------------------------------------------------------------- scenes with contact

@@ -89,18 +89,23 @@ def accuracy_cases(*, quick: bool, models: Optional[Sequence[str]] = None,
                    scenario_names: Optional[Sequence[str]] = None) -> List[Case]:
     """The accuracy sweep: each scenario × model label (default all) × (dt, settings), plus n_segments ∈
     :data:`SEGMENT_COUNTS` at dt = 0.002 with the defaults (full sweep). ``--quick``: two dts per label at its
-    defaults on ``catenary``, ``chain`` and ``table`` and one run on ``cantilever`` and ``drape``."""
+    defaults on ``catenary``, ``chain`` and ``table`` and one run on the other scenarios that run in quick sweeps
+    (:attr:`~mjcable.bench.scenarios.Scenario.in_quick`, with their ``quick_params`` and ``quick_time_cap``: one
+    capstan μ, fewer bisection steps)."""
     models = case_mod.model_labels(models)
     cap = TIME_CAP_QUICK if quick else TIME_CAP_BENCH
-    names = scenario_names or tuple(scenarios.SCENARIOS)
+    names = scenario_names or tuple(n for n, s in scenarios.SCENARIOS.items() if s.in_quick or not quick)
     cases = []
     for name in names:
+        scenario = scenarios.get(name)
+        params = scenario.quick_params if quick else ()
+        cap_of = (scenario.quick_time_cap or cap) if quick else cap
         for model in models:
             grid = _settings_grid(model, quick)
             if quick and name not in QUICK_SCENARIOS:
                 grid = grid[-1:]
             for dt, settings in grid:
-                cases.append(Case(name, model, dt, settings=settings, quick=quick, time_cap=cap))
+                cases.append(Case(name, model, dt, settings=settings, params=params, quick=quick, time_cap=cap_of))
             if not quick:
                 for n in SEGMENT_COUNTS:
                     cases.append(Case(name, model, 0.002, n_segments=n, time_cap=cap))

@@ -1,6 +1,6 @@
 """Benchmark scenarios: a scene, how long to run it, what to drive, and its error against an independent reference.
 
-Five accuracy scenarios (:data:`SCENARIOS`):
+The accuracy scenarios (:data:`SCENARIOS`), first five of shape and frequency:
 
 * ``catenary``: the ``hang`` scene damped to rest; error = RMS distance in metres of the particles to the
   inextensible catenary (:func:`mjcable.reference.catenary`).
@@ -15,9 +15,27 @@ Five accuracy scenarios (:data:`SCENARIOS`):
   particles to the ideal drape (two vertical strands hanging from the peg,
   :func:`mjcable.reference.drape_rest_distance`).
 
+And the contact families (scenes and measurements in :mod:`mjcable.bench.contact`):
+
+* ``capstan_mu0.2`` and ``capstan_mu0.5``: a rope hanging over a horizontal peg (half a turn), μ = 0.2 and 0.5.
+  The run simulates the first probe (legs at 0.85 of the heavy-rope law's ratio) for its settling second; the
+  measurement then continues it and bisects the factor of the law at which the rope slips
+  (:func:`mjcable.bench.contact.capstan_slip_factor`, to 2 %); error = |found / law − 1|, the relative error of the
+  slip ratio against (L_long − β) / (L_short + β) = e^{μπ} (:func:`mjcable.reference.heavy_capstan_ratio`). Here
+  ``n_segments`` is the rope's segments *per metre* (its length changes with the probe). ``--quick``: μ = 0.5 only,
+  with at most :data:`CAPSTAN_QUICK_STEPS` bisection steps (about 2 % when the slip lies between 0.85 and 1.15, 7 %
+  below 0.85), at most 6 probes of 3 simulated seconds.
+* ``incline_stick``, ``incline_slide``: a cable lying down the slope of a box tilted about y, μ = 0.5, tilted
+  just below the friction angle (tan θ = 0.95 μ: it must stick) and at 35° (it slides at g (sin θ − μ cos θ));
+  ``incline_stick_across``, ``incline_slide_across``: the same with the cable lying across the slope (a cable whose
+  bodies can roll rolls). The centre of mass's travel down the slope is fitted to s₀ + a t² / 2
+  (:func:`mjcable.bench.contact.fit_acceleration`); error = |a − a_ref| / a_ref when it should slide, |a| / (g sin θ)
+  when it should stick (:func:`mjcable.reference.incline_acceleration`).
+
 Stress scenarios (:data:`STRESS_SCENARIOS`) vary one parameter each: ``stiffness`` (E·A on the drape), ``bending`` (E of a cantilever), ``segments``
-(n_segments on the table drop), ``speed`` (a gripper yanks the cable's end) and ``load`` (a heavy mass at the end of
-a light cable hanging from one pin). :data:`EXTRA_SCENARIOS`: ``swing`` (the thesis's stiffness-effect grid) and
+(n_segments on the table drop), ``speed`` (a gripper yanks the cable's end), ``load`` (a heavy mass at the end of
+a light cable hanging from one pin) and ``plate`` (a cable dropped from the height at which it hits a 4 mm plate at
+``speed`` m/s: does it tunnel?). :data:`EXTRA_SCENARIOS`: ``swing`` (the thesis's stiffness-effect grid) and
 ``skip`` (the timing of what skipping unneeded contact work saves).
 
 Damping in the static scenarios only speeds up settling: it never changes a static equilibrium.
@@ -34,6 +52,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
+from mjcable.bench import contact
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -51,6 +70,9 @@ __all__ = [
     "fit_frequency",
     "CHAIN_AMPLITUDE",
     "CANTILEVER_YOUNG",
+    "CAPSTAN_MUS",
+    "CAPSTAN_QUICK_MU",
+    "CAPSTAN_QUICK_STEPS",
 ]
 
 RADIUS = 0.005  # m, cable radius of the built-in scenes
@@ -74,6 +96,15 @@ YANK_AFTER = 0.5  # s after the gripper stops
 SWING_STRETCH_STIFFNESS = 20.0  # N: E·A of the stiffness-effect cable (W L / (2 E A) ≈ 2.5 % hanging)
 SWING_TIME = 0.25  # s, when the thesis took its stiffness-effect pictures
 UNUSED_FLOOR_HEIGHT = -1.0  # m, a floor the hanging cable (lowest point 0.73 m) never reaches
+CAPSTAN_MUS = (0.2, 0.5)  # one scenario each
+CAPSTAN_QUICK_MU = 0.5  # the one --quick runs: the particle solvers do not hold at 0.85 of the law there
+CAPSTAN_STEPS = 6  # bisection steps at most: 2 % from any first bracket in [0.3, 2]
+CAPSTAN_QUICK_STEPS = 4  # --quick: 2 % from [0.85, 1.15], 7 % from [0.3, 0.85]
+CAPSTAN_QUICK_TIME_CAP = 150.0  # s: joints and composite take ~25 s for their 6 probes on an idle core
+INCLINE_MU = 0.5
+INCLINE_STICK_TILT = math.degrees(math.atan(0.95 * INCLINE_MU))  # just below the friction angle: it sticks
+INCLINE_SLIDE_TILT = 35.0  # degrees: a = g (sin θ − μ cos θ) = 1.61 m/s², 0.8 m in the run's second
+PLATE_DURATION = 1.6  # s: the fall from 10 m/s's height (1.02 s) and half a second on the plate
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,6 +128,10 @@ class Scenario:
       needs_com_x: sample the centre of mass's x for ``evaluate`` (the chain's frequency).
       strain_limit: segment strain beyond which the run counts as diverged (``None``: the sweep's
         ``STRAIN_LIMIT``; ``math.inf`` for the stiffness-effect grid, whose point is to show the stretch).
+      in_quick: run in ``--quick`` sweeps (accuracy scenarios).
+      quick_params: ``(name, value)`` scenario parameters of its ``--quick`` cases (e.g. fewer bisection steps).
+      quick_time_cap: wall-clock seconds its ``--quick`` cases may take (``None``: the sweep's cap), for a run
+        that measures with more simulations than the one it times (the capstan's bisection).
     """
 
     name: str
@@ -112,6 +147,9 @@ class Scenario:
     setup: Optional[Callable] = None
     needs_com_x: bool = False
     strain_limit: Optional[float] = None
+    in_quick: bool = True
+    quick_params: tuple = ()
+    quick_time_cap: Optional[float] = None
 
 
 # ------------------------------------------------------------------------------------------------------ scenes
@@ -254,6 +292,51 @@ def _drape_error(scene: Scene, x: np.ndarray, history: dict) -> float:
     return float(np.sqrt(np.mean(d**2)))
 
 
+def _capstan_setup(sim, params: dict) -> None:
+    """Hand the run's simulator and bisection steps to the measurement (:func:`_capstan_error`)."""
+    sim.scene.runs.update(sim=sim, steps=int(params.get("steps", CAPSTAN_STEPS)))
+
+
+def _capstan_error(scene: Scene, x: np.ndarray, history: dict) -> float:
+    """The run simulated the first probe's settling: finish it, bisect the slip factor, return |factor − 1|."""
+    run = scene.runs
+    sim = run.pop("sim")
+    first = contact.finish_probe(sim, settled=x[-1])
+    search = contact.capstan_slip_factor(sim.model, sim.dt, dataclasses.asdict(sim.settings), mu=scene.mu,
+                                         steps=run.pop("steps"), segments_per_metre=scene.segments_per_metre,
+                                         first_speed=first)
+    return abs(search.factor - 1.0)
+
+
+def _capstan(mu: float) -> Scenario:
+    return Scenario(
+        f"capstan_mu{mu:g}",
+        f"rope over a peg (half a turn), μ = {mu:g}; n_segments per metre; relative error of the slip ratio "
+        "against the heavy-rope capstan law (bisected)",
+        lambda n, p: contact.capstan_scene(contact.FIRST_PROBES[0], mu=mu, segments_per_metre=n),
+        duration=contact.SETTLE_TIME, quick_duration=contact.SETTLE_TIME, error_kind="relative",
+        evaluate=_capstan_error, setup=_capstan_setup, in_quick=mu == CAPSTAN_QUICK_MU,
+        quick_params=(("steps", CAPSTAN_QUICK_STEPS),), quick_time_cap=CAPSTAN_QUICK_TIME_CAP)
+
+
+def _incline_error(scene: Scene, x: np.ndarray, history: dict) -> float:
+    box = scene.obstacles[0]
+    tilt = math.radians(box.euler[1])
+    a = contact.fit_acceleration(history["times"], contact.incline_travel(scene, history["com_x"]))
+    ref = reference.incline_acceleration(box.friction, tilt)
+    return abs(a - ref) / (ref if ref > 0 else reference.G * math.sin(tilt))
+
+
+def _incline(name: str, tilt: float, across: bool) -> Scenario:
+    sticks = math.tan(math.radians(tilt)) <= INCLINE_MU
+    return Scenario(
+        name, f"cable {'across' if across else 'down'} a {tilt:.3g}° slope, μ = {INCLINE_MU:g} "
+        f"({'sticks' if sticks else 'slides'}); error of the fitted acceleration",
+        lambda n, p: contact.incline_scene(INCLINE_MU, tilt, n_segments=n, across=across),
+        duration=1.0, quick_duration=1.0, error_kind="of g sin θ" if sticks else "relative",
+        evaluate=_incline_error, needs_com_x=True)
+
+
 def _elongation(scene: Scene, x: np.ndarray, history: dict) -> float:
     return float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)) / scene.cable.length - 1.0)
 
@@ -306,6 +389,11 @@ SCENARIOS: Dict[str, Scenario] = {
         Scenario("drape", "straight cable falls onto a peg; RMS distance to the ideal drape",
                  lambda n, p: scenes.get("drape", n_segments=n, damping=DAMPING_CONTACT),
                  duration=3.0, quick_duration=2.0, error_kind="m", evaluate=_drape_error),
+        *(_capstan(mu) for mu in CAPSTAN_MUS),
+        _incline("incline_stick", INCLINE_STICK_TILT, across=False),
+        _incline("incline_slide", INCLINE_SLIDE_TILT, across=False),
+        _incline("incline_stick_across", INCLINE_STICK_TILT, across=True),
+        _incline("incline_slide_across", INCLINE_SLIDE_TILT, across=True),
     )
 }
 
@@ -329,6 +417,9 @@ STRESS_SCENARIOS: Dict[str, Scenario] = {
         Scenario("load", "light cable hanging from one pin with an end mass of `load` times its own",
                  lambda n, p: hanging_scene(n), duration=1.0, quick_duration=1.0, error_kind="none",
                  setup=_load_setup),
+        Scenario("plate", "cable dropped onto a 4 mm plate, hitting it at `speed` m/s (no floor below)",
+                 lambda n, p: contact.plate_scene(float(p["speed"]), n_segments=n),
+                 duration=PLATE_DURATION, quick_duration=PLATE_DURATION, error_kind="none"),
     )
 }
 
