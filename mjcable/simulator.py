@@ -12,6 +12,7 @@ import math
 from typing import Optional
 
 import mujoco
+import numba
 import numpy as np
 
 from mjcable import _validate, catalog
@@ -23,6 +24,25 @@ __all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE"]
 MAX_SPEED = 200.0  # m/s: a cable particle faster than this has diverged
 MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
 _STEP_EPS = 1e-9  # fraction of dt forgiven when counting whole steps in an accumulated duration
+
+
+@numba.njit(cache=True)
+def _measure(x: np.ndarray, previous: np.ndarray) -> tuple:
+    """What :meth:`Simulator._check` tests, in one pass over positions ``x`` (N, 3) m and ``previous`` (N, 3) m (the
+    positions before the step): (all finite, largest |coordinate| in m, the largest particle travel in m). The
+    arithmetic of ``np.max(np.abs(x))`` and ``np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))`` (and of the
+    particle solvers' compiled loop, :func:`mjcable.solvers.kernels.run_steps_flat`), at a fraction of their
+    per-call cost."""
+    finite, far, top = True, 0.0, 0.0
+    for p in range(x.shape[0]):
+        d2 = 0.0
+        for comp in range(3):
+            finite = finite and math.isfinite(x[p, comp])
+            far = max(far, abs(x[p, comp]))
+            d = x[p, comp] - previous[p, comp]
+            d2 += d * d
+        top = max(top, d2)
+    return finite, far, math.sqrt(top)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -174,11 +194,35 @@ class Simulator:
         return count
 
     def _advance(self) -> None:
+        """One step through the backend's :meth:`step` (the per-step path), checked."""
         reason = self._backend.step()
         self._steps += 1
         previous = self._positions
         self._positions = self._backend.positions()
         self._check(self._positions, previous, reason)
+
+    def _in_kernel(self, count: int) -> bool:
+        """Whether ``count`` steps go to the backend's ``run`` in one call (many steps in compiled code, the
+        divergence checks included) rather than one :meth:`_advance` each: a backend that offers it (the particle
+        solvers' ``runs_steps``) and more than one step (one gains nothing from the loop)."""
+        return count > 1 and getattr(self._backend, "runs_steps", False)
+
+    def _run(self, count: int, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray) -> None:
+        """``count`` steps through the backend's ``run``, recording the state after the steps ``rows`` (R,)
+        (ascending, 1..count) into ``out_x``, ``out_v`` (R, N, 3). A step that the compiled loop flagged is checked
+        again here (:meth:`_check`: the same tests in the same arithmetic), so that the error is the per-step path's."""
+        done = stored = 0
+        while done < count:
+            k, recorded, reason, previous = self._backend.run(
+                count - done, max_distance=MAX_DISTANCE, max_speed=MAX_SPEED, rows=rows[stored:] - done,
+                out_x=out_x[stored:], out_v=out_v[stored:])
+            done += k
+            stored += recorded
+            self._steps += k
+            self._positions = self._backend.positions()
+            if previous is None:
+                continue
+            self._check(self._positions, previous, reason)  # raises naming the step (or goes on after a near miss)
 
     def step(self, seconds: Optional[float] = None) -> None:
         """Advance by whole steps of ``dt``; the remainder of ``seconds`` carries over to the next call.
@@ -189,7 +233,12 @@ class Simulator:
         Raises:
           SimulationDivergedError: NaN, runaway state or a MuJoCo warning.
         """
-        for _ in range(self._count(seconds)):
+        count = self._count(seconds)
+        if self._in_kernel(count):
+            none = np.zeros((0,) + self._positions.shape)
+            self._run(count, np.zeros(0, dtype=np.int64), none, none)
+            return
+        for _ in range(count):
             self._advance()
 
     def rollout(self, seconds: float, *, every: Optional[int] = None) -> Trajectory:
@@ -211,13 +260,17 @@ class Simulator:
         count = self._count(seconds)
         rows = [k for k in range(1, count + 1) if k % stride == 0 or k == count] or [0]
         shape = (len(rows),) + self._positions.shape
-        times, pos, vel = np.empty(len(rows)), np.empty(shape), np.empty(shape)
+        start = self._steps
+        times, pos, vel = (np.array(rows, dtype=np.int64) + start) * self.dt, np.empty(shape), np.empty(shape)
+        if self._in_kernel(count):
+            self._run(count, np.array(rows, dtype=np.int64), pos, vel)
+            return Trajectory(times=times, positions=pos, velocities=vel)
         r = 0
         for k in range(count + 1):
             if k > 0:
                 self._advance()
             if r < len(rows) and rows[r] == k:
-                times[r], pos[r], vel[r] = self.time, self._positions, self._backend.velocities()
+                pos[r], vel[r] = self._positions, self._backend.velocities()
                 r += 1
         return Trajectory(times=times, positions=pos, velocities=vel)
 
@@ -228,12 +281,13 @@ class Simulator:
         self._start_steps()
 
     def _check(self, x: np.ndarray, previous: Optional[np.ndarray], reason: Optional[str] = None) -> None:
-        if reason is None and not np.all(np.isfinite(x)):
+        finite, far, travel = _measure(x, x if previous is None else previous)
+        if reason is None and not finite:
             reason = "non-finite particle positions (NaN or inf)"
-        if reason is None and np.max(np.abs(x)) > MAX_DISTANCE:
+        if reason is None and far > MAX_DISTANCE:
             reason = f"a particle ran off beyond {MAX_DISTANCE:g} m"
         if reason is None and previous is not None:
-            speed = float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / self.dt
+            speed = travel / self.dt
             if speed > MAX_SPEED:
                 reason = f"a particle moved at {speed:.3g} m/s (limit {MAX_SPEED:g} m/s)"
         if reason is not None:

@@ -3,12 +3,14 @@ model the catalogue registers with its own ``rules``).
 
 One :meth:`ParticleBackend.step` advances exactly one ``dt``: query contacts (once, with a margin), run
 ``substeps`` substeps of ``iterations`` iterations in one numba call, then pose the proxy capsules from the
-particles so that ``mj_data`` renders the cable.
+particles so that ``mj_data`` renders the cable. :meth:`ParticleBackend.run` takes many steps with the same
+results, bit for bit: in one compiled loop (:func:`~mjcable.solvers.kernels.run_steps_flat`, the Simulator's
+divergence checks included) for as long as no step needs a contact query, with Python only around the queries,
+and the proxy posed once at the end.
 """
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Optional
 
@@ -25,11 +27,21 @@ from mjcable.solvers.user_constraints import iteration_factor
 
 __all__ = ["ParticleBackend", "proxy_builder"]
 _SELF_CONTACT_CAPACITY = 8  # initial self-contact buffer per segment (grown on demand)
+_NON_FINITE = "non-finite particle state (NaN or inf) in the particle solver"
 
 
 def proxy_builder(scene: Scene, settings: ParticleSettings, dt: float) -> mujoco.MjSpec:
     """The catalogue's builder for a particle model: the proxy spec (:func:`mjcable.mjcf.proxy.build`)."""
     return proxy.build(scene, dt=dt, contact_margin=settings.contact_margin)
+
+
+def _obstacle_bounds(obstacles: Optional[ObstacleContacts]) -> tuple:
+    """The static obstacles as :meth:`ObstacleContacts.touching` tests them, for the step driver: world boxes
+    (lo, hi (B, 3)) and planes (unit normal, point (F, 3)); empty for none. (ObstacleContacts keeps them private:
+    they are read here, in this one place, so that both tests use the very same numbers.)"""
+    if obstacles is None:
+        return tuple(np.zeros((0, 3)) for _ in range(4))
+    return obstacles._box_lo, obstacles._box_hi, obstacles._plane_n, obstacles._plane_p
 
 
 class ParticleBackend:
@@ -46,7 +58,12 @@ class ParticleBackend:
       mj_model, mj_data: the compiled proxy; its capsules follow the cable after every step.
       state: the solver arrays (:class:`~mjcable.solvers.kernels.Chain`).
       released: pin numbers (indices into ``scene.pins``) of sockets that have let go.
+      compiled_steps: class switch: ``False`` leaves :attr:`runs_steps` false, so that the Simulator takes every
+        step through :meth:`step` (the Python path that :meth:`run` must equal bit for bit; for tests and
+        measurements).
     """
+
+    compiled_steps = True
 
     def __init__(self, scene: Scene, entry, dt: float, settings: ParticleSettings):
         self.settings = s = settings
@@ -84,14 +101,29 @@ class ParticleBackend:
         self._self_pair = np.zeros((_SELF_CONTACT_CAPACITY * n, 2), dtype=np.int64)
         self._self_geo = np.zeros((_SELF_CONTACT_CAPACITY * n, 5))
         self._gravity = float(np.linalg.norm(self.mj_model.opt.gravity))  # m/s²
+        self._fall = 0.5 * self._gravity * dt**2  # m: what gravity adds to one step's travel
+        # run()'s buffers: the step driver's limits (kernels.LIM), positions before a step, mj_data.time
+        self._lim = np.zeros(len(kernels.LIM))
+        self._lim[[kernels.LIM["dt"], kernels.LIM["contact_margin"], kernels.LIM["fall"], kernels.LIM["radius"]]] = (
+            dt, s.contact_margin, self._fall, scene.cable.radius)
+        self._prev = np.zeros((n_particles, 3))
+        self._clock = np.zeros(1)
+        self._bounds = _obstacle_bounds(self._obstacles)
         self.timing = {"query": 0.0, "solve": 0.0, "sync": 0.0}
         self.reset()
+
+    @property
+    def runs_steps(self) -> bool:
+        """Whether :meth:`run` can take the Simulator's steps: always, but with PBD's user constraints (projected
+        in Python between iterations) or with :attr:`compiled_steps` off."""
+        return self.compiled_steps and not self._user
 
     def reset(self) -> None:
         """Copy the start state back into the solver's arrays (in place), and the proxy back to its start pose."""
         for name, a in self.state._asdict().items():
             np.copyto(a, self._start[name])
         mujoco.mj_resetData(self.mj_model, self.mj_data)
+        self._posed = False
         self.contacts = empty_contacts()
         self.released = set()
         self.last_contact_count = 0
@@ -121,21 +153,71 @@ class ParticleBackend:
         self.timing["query"] += t1 - t0
         self.timing["solve"] += t2 - t1
         self.timing["sync"] += time.perf_counter() - t2
-        if not finite:
-            return "non-finite particle state (NaN or inf) in the particle solver"
-        return None
+        return None if finite else _NON_FINITE
+
+    def run(self, count: int, *, max_distance: float, max_speed: float, rows: np.ndarray, out_x: np.ndarray,
+            out_v: np.ndarray) -> tuple:
+        """Up to ``count`` steps with the results of as many :meth:`step` calls, bit for bit, stopping after a step
+        that fails a divergence check; ``mj_data`` is posed once, at the end.
+
+        Steps that need no contact query run in one compiled loop (:func:`kernels.run_steps_flat`); a query (a
+        step whose reach touches an obstacle's bounding box, or every step with self-collision) returns to Python
+        for ``mj_collision``.
+
+        Args:
+          count: steps to take (>= 1).
+          max_distance, max_speed: the Simulator's runaway limits (m from the origin, m/s).
+          rows: ``(R,)`` ascending step numbers (1..count) after which to record the state, into ``out_x`` and
+            ``out_v`` ``(R, n_segments + 1, 3)`` (m, m/s).
+
+        Returns:
+          (steps taken, rows recorded, the solver's divergence reason or ``None``, the positions (N, 3) before
+          the last step if a check stopped the run, else ``None``: the caller checks that step again and raises).
+        """
+        S, s, lim, clock = self.state, self.settings, self._lim, self._clock
+        lim[kernels.LIM["max_distance"]], lim[kernels.LIM["max_speed"]] = max_distance, max_speed
+        clock[0] = self.mj_data.time
+        solo = bool(s.self_collision)
+        done = stored = 0
+        reason = previous = None
+        while done < count:
+            t0 = time.perf_counter()
+            self._find_contacts()
+            t1 = time.perf_counter()
+            chunk = rows[stored:] - done if len(rows) > stored else rows[:0]
+            k, finite, released, stopped, recorded = kernels.run_steps_flat(
+                *S, *self.contacts, s.substeps, count - done, solo, lim, *self._bounds, self._prev, chunk,
+                out_x[stored:], out_v[stored:], clock)
+            self._posed = False
+            self.timing["query"] += t1 - t0
+            self.timing["solve"] += time.perf_counter() - t1
+            done += k
+            stored += recorded
+            if k > 1:  # the loop's later steps had no contacts
+                self.last_contact_count = 0
+            if released:
+                self.released.update(int(pin) for pin in np.flatnonzero(~S.pin_active))
+            if stopped:
+                reason = None if finite else _NON_FINITE
+                previous = self._prev.copy()
+                break
+        t2 = time.perf_counter()
+        self.mj_data.time = float(clock[0])
+        self._sync()
+        self.timing["sync"] += time.perf_counter() - t2
+        return done, stored, reason, previous
 
     def _find_contacts(self) -> None:
         S, s = self.state, self.settings
         contacts = self.contacts
-        speed = math.sqrt(float(np.max(np.einsum("ij,ij->i", S.v, S.v))))
-        # the distance a particle can travel in one step, plus the configured margin
-        margin = s.contact_margin + speed * self.dt + 0.5 * self._gravity * self.dt**2
-        if not math.isfinite(margin):  # a diverged state: leave it to the divergence check
-            margin = s.contact_margin
+        # the distance a particle can travel in one step, plus the configured margin (the margin alone for a diverged
+        # state: left to the divergence check)
+        margin = kernels.step_margin(S.v, s.contact_margin, self.dt, self._fall)
         self.last_contact_count = 0
         if self._obstacles is not None:
             if self._obstacles.touching(S.x, margin + self.scene.cable.radius):
+                if not self._posed:  # run() poses the proxy only at its end: mj_collision needs it now
+                    self._pose()
                 contacts = self._obstacles.query(S.x, margin, contacts)
                 self.queries += 1
             else:
@@ -171,11 +253,16 @@ class ParticleBackend:
             released += count
         return finite, released
 
-    def _sync(self) -> None:
-        """Pose the proxy capsules (and particle sites) from the particles."""
-        x = self.state.x
-        query_kernels.proxy_poses(x, self._pose_pos, self._pose_quat)
+    def _pose(self) -> None:
+        """Pose the proxy capsules from the particles and run MuJoCo's kinematics (what ``mj_collision`` needs)."""
+        query_kernels.proxy_poses(self.state.x, self._pose_pos, self._pose_quat)
         mujoco.mj_kinematics(self.mj_model, self.mj_data)
+        self._posed = True
+
+    def _sync(self) -> None:
+        """Pose the proxy capsules (and particle sites) from the particles: ``mj_data`` current for its readers."""
+        x = self.state.x
+        self._pose()
         mujoco.mj_camlight(self.mj_model, self.mj_data)  # cameras and lights (a renderer reads cam_xpos)
         # the exact particles (the capsules keep their rest length, so their end sites are off by the strain)
         if self._site_pos is not None:

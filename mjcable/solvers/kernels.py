@@ -15,11 +15,11 @@ known (XPBD's constraint force estimate ∇Cᵀ λ / h², Macklin et al. 2016).
 Performance notes (measured, numba 0.68, 100 particles): a per-constraint helper that takes arrays ran 3× slower
 than the same arithmetic written inline, even with ``inline="always"``, and every call passing the 33-array state
 costs microseconds (reference counting per array argument). So the per-constraint functions take and return
-scalars only, the hot sweeps and the substep pieces are inlined into the driver, the rarely used sweeps are called
-only when they have work, and the driver takes the arrays as separate arguments (``run_substeps_flat``).
-``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence) instead of raising in the loop.
-Numba caches per file: every jitted function the driver calls lives in this module, so an edit here invalidates
-the whole cache (a callee in another file would leave a stale cache behind).
+scalars only, the hot sweeps and the substep pieces are inlined into the drivers, the rarely used sweeps are called
+only when they have work, and the drivers take the arrays as separate arguments: ``run_substeps_flat`` (one step)
+and ``run_steps_flat`` (many whole steps with the Simulator's divergence checks: one call per ``step(T)`` that
+needs no contact query). ``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence). Numba
+caches per file: every jitted function the drivers call lives here (a callee elsewhere would leave a stale cache).
 
 References:
   [J01] T. Jakobsen, "Advanced Character Physics", GDC 2001 (in ``shared/seeds``).
@@ -41,27 +41,10 @@ from collections import namedtuple
 
 import numba
 
-__all__ = [
-    "Chain",
-    "Contacts",
-    "run_substeps",
-    "run_substeps_flat",
-    "begin_substep",
-    "iterate",
-    "end_substep",
-    "xpbd_multiplier",
-    "stretch_step",
-    "stretch_step_sqrt",
-    "stretch_sweep",
-    "curvature_sweep",
-    "clamp_sweep",
-    "contact_sweep",
-    "self_contact_sweep",
-    "direct_solve",
-    "banded_ldlt_solve",
-    "FP",
-    "IP",
-]
+__all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_flat", "step_margin", "begin_substep",
+           "iterate", "end_substep", "xpbd_multiplier", "stretch_step", "stretch_step_sqrt", "stretch_sweep",
+           "curvature_sweep", "clamp_sweep", "contact_sweep", "self_contact_sweep", "direct_solve",
+           "banded_ldlt_solve", "FP", "IP", "LIM"]
 
 _jit = numba.njit(cache=True, error_model="numpy")
 _inline = numba.njit(cache=True, error_model="numpy", inline="always")
@@ -70,12 +53,15 @@ _inline = numba.njit(cache=True, error_model="numpy", inline="always")
 FP = dict(h=0, damp=1, gx=2, gy=3, gz=4, alpha_s=5, alpha_b=6, alpha_c=7, k_s=8, k_b=9, k_c=10, inv_l0sq=11,
           omega=12, radius=13)
 IP = dict(iterations=0, order=1, bending=2, sqrt=3, bandwidth=4, direct_all=5)
+# Indices into run_steps_flat's ``lim`` (floats): step (s), divergence limits (m, m/s), the contact query's terms.
+LIM = dict(dt=0, max_distance=1, max_speed=2, contact_margin=3, fall=4, radius=5)
 N_FP = len(FP)
 N_IP = len(IP)
 _F_H, _F_DAMP, _F_GX, _F_GY, _F_GZ = 0, 1, 2, 3, 4
 _F_ALPHA_S, _F_ALPHA_B, _F_ALPHA_C, _F_K_S, _F_K_B, _F_K_C = 5, 6, 7, 8, 9, 10
 _F_INV_L0SQ, _F_OMEGA, _F_RADIUS = 11, 12, 13
 _I_ITER, _I_ORDER, _I_BEND, _I_SQRT, _I_BW, _I_DIRECT_ALL = 0, 1, 2, 3, 4, 5
+_L_DT, _L_DISTANCE, _L_SPEED, _L_MARGIN, _L_FALL, _L_RADIUS = 0, 1, 2, 3, 4, 5
 
 ORDER_GAUSS_SEIDEL, ORDER_JACOBI, ORDER_DIRECT = 0, 1, 2
 BEND_NONE, BEND_CURVATURE, BEND_DISTANCE = 0, 1, 2
@@ -805,3 +791,108 @@ def run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, 
               row_p, prow, pslot, band, grad, rhs, fp, ip)
     C = Contacts(seg, geo, lam, pair, sgeo, slam)
     return run_substeps(S, C, n_sub, phase, sub)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Whole steps: the Simulator's steps without returning to Python while nothing needs it.
+
+
+@_inline
+def step_margin(v, contact_margin, dt, fall):
+    """The contact query's margin (m) for the next step: ``contact_margin`` plus the fastest particle's travel in
+    one step, speed · dt + ``fall`` (½ g dt²), from ``v`` (N, 3); ``contact_margin`` alone for a non-finite state."""
+    top = 0.0
+    for p in range(v.shape[0]):
+        s2 = v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1] + v[p, 2] * v[p, 2]
+        if s2 > top or s2 != s2:
+            top = s2
+    margin = contact_margin + math.sqrt(top) * dt + fall
+    return margin if math.isfinite(margin) else contact_margin
+
+
+@_inline
+def _touches(x, reach, box_lo, box_hi, plane_n, plane_p):
+    """:func:`mjcable.solvers.query_kernels.touches_obstacles` (the same arithmetic) for the step driver."""
+    lo0 = lo1 = lo2 = math.inf
+    hi0 = hi1 = hi2 = -math.inf
+    for p in range(x.shape[0]):
+        lo0, lo1, lo2 = min(lo0, x[p, 0]), min(lo1, x[p, 1]), min(lo2, x[p, 2])
+        hi0, hi1, hi2 = max(hi0, x[p, 0]), max(hi1, x[p, 1]), max(hi2, x[p, 2])
+    lo, hi = (lo0 - reach, lo1 - reach, lo2 - reach), (hi0 + reach, hi1 + reach, hi2 + reach)
+    for k in range(box_lo.shape[0]):
+        if (lo[0] <= box_hi[k, 0] and hi[0] >= box_lo[k, 0] and lo[1] <= box_hi[k, 1] and hi[1] >= box_lo[k, 1]
+                and lo[2] <= box_hi[k, 2] and hi[2] >= box_lo[k, 2]):
+            return True
+    for k in range(plane_n.shape[0]):
+        depth = 0.0
+        for comp in range(3):
+            depth += plane_n[k, comp] * (0.5 * (lo[comp] + hi[comp]) - plane_p[k, comp])
+            depth -= abs(plane_n[k, comp]) * 0.5 * (hi[comp] - lo[comp])
+        if depth <= 0.0:
+            return True
+    return False
+
+
+@_inline
+def _step_checks(x, v, prev, lim):
+    """(x, v finite; runaway: |coordinate| > lim[max_distance] or |x − prev| / dt > lim[max_speed]), as Simulator."""
+    far, top, bad = 0.0, 0.0, 0.0  # bad: NaN once any x or v is non-finite (z − z), without a branch
+    for p in range(x.shape[0]):
+        d2 = 0.0
+        for comp in range(3):
+            bad += (x[p, comp] - x[p, comp]) + (v[p, comp] - v[p, comp])
+            far = max(far, abs(x[p, comp]))
+            d = x[p, comp] - prev[p, comp]
+            d2 += d * d
+        top = max(top, d2)
+    return bad == 0.0, far > lim[_L_DISTANCE] or math.sqrt(top) / lim[_L_DT] > lim[_L_SPEED]
+
+
+@_jit
+def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
+                   clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
+                   row_p, prow, pslot, band, grad, rhs, fp, ip, seg, geo, lam, pair, sgeo, slam, n_sub, n_steps, solo,
+                   lim, box_lo, box_hi, plane_n, plane_p, prev, rows, out_x, out_v, clock):
+    """Up to ``n_steps`` whole steps of ``n_sub`` substeps (:func:`run_substeps`) in one call (``*chain,
+    *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones none. After each
+    step, as the Python step: the pins' start moves to their target (a gripper move spreads over one step),
+    ``clock[0] += lim[dt]`` (``mj_data.time``), x and v go to ``out_x[r]``, ``out_v[r]`` (R, N, 3) when the
+    step's number in this call is ``rows[r]`` (ascending). Returns (steps taken, finite, sockets released, stopped
+    by a check, rows stored), early:
+
+    * after a step whose state is non-finite or runs away (:func:`_step_checks`; ``prev`` (N, 3) holds the
+      positions before it), so that the caller raises naming that step;
+    * before a step whose reach (:func:`step_margin` + ``lim[radius]``) touches an obstacle (``box_lo``, ``box_hi``,
+      ``plane_n``, ``plane_p``: empty for none), or any step after the first if ``solo`` (self-collision): the
+      caller queries its contacts."""
+    S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
+              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
+              row_p, prow, pslot, band, grad, rhs, fp, ip)
+    given = Contacts(seg, geo, lam, pair, sgeo, slam)
+    none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0])
+    obstacles = box_lo.shape[0] + plane_n.shape[0] > 0
+    released, stored = 0, 0
+    for k in range(n_steps):
+        if k > 0 and (solo or (obstacles and _touches(
+                x, step_margin(v, lim[_L_MARGIN], lim[_L_DT], lim[_L_FALL]) + lim[_L_RADIUS], box_lo, box_hi,
+                plane_n, plane_p))):
+            return k, True, released, False, stored
+        C = given if k == 0 else none
+        for p in range(x.shape[0]):  # (explicit copies: faster than slice assignments here)
+            prev[p, 0], prev[p, 1], prev[p, 2] = x[p, 0], x[p, 1], x[p, 2]
+        for sub in range(n_sub):  # run_substeps(S, C, n_sub, PHASE_ALL, 0), its finite check below
+            begin_substep(S, C, sub, n_sub)
+            for _ in range(ip[_I_ITER]):
+                iterate(S, C)
+            released += end_substep(S)
+        for q in range(pin_to.shape[0]):
+            pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
+        clock[0] += lim[_L_DT]
+        if stored < rows.shape[0] and rows[stored] == k + 1:
+            out_x[stored, :, :] = x
+            out_v[stored, :, :] = v
+            stored += 1
+        finite, runaway = _step_checks(x, v, prev, lim)
+        if not finite or runaway:
+            return k + 1, finite, released, True, stored
+    return n_steps, True, released, False, stored

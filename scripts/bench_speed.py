@@ -1,0 +1,218 @@
+"""Whole-step speed: ``Simulator.step(1.0)`` against the least work that does the same physics, on this machine.
+
+Prints a markdown table (the README's "Speed" section shows one) of:
+
+* ``hang`` (50 segments, ``xpbd`` with ``order="gauss-seidel", substeps=4, iterations=1``): ``step(1.0)``, 500
+  steps from the start state, against :func:`minimal_loop` doing the same 2,000 substeps on the same particles;
+* ``table`` (the same settings): ``step(1.0)`` with the cable lying on the table (every step queries contacts),
+  against the kernel plus one ``mj_collision`` per step, on solver state and proxy built like the backend's from
+  the simulator's own positions and velocities; and ``step(1.0)`` from the start (the cable falls for 0.2 s first);
+* every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed).
+
+Every time is the best of ``--repeats`` runs (default 3; the machine may be shared: the table states the load);
+numba compile time is excluded (warm-up calls first, kernels cached on disk).
+
+Usage::
+
+    python scripts/bench_speed.py [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import time
+
+import mujoco
+import numba
+import numpy as np
+
+import mjcable
+from mjcable import catalog
+from mjcable.mjcf import proxy
+from mjcable.solvers import kernels, query_kernels, state
+from mjcable.solvers.contacts import ObstacleContacts
+
+SETTINGS = dict(order="gauss-seidel", substeps=4, iterations=1)  # the issue's setting for both ratios
+SECONDS = 1.0
+
+
+@numba.njit(cache=True)
+def minimal_loop(x, v, x0, w, rest, h, gz, n_sub):
+    """The least a particle chain's substep can do: predict with gravity (no damping), one Gauss-Seidel sweep of
+    mass-weighted distance projections (α = 0), velocity update; scalar code, no temporaries."""
+    n = x.shape[0]
+    for _ in range(n_sub):
+        for i in range(n):
+            x0[i, 0], x0[i, 1], x0[i, 2] = x[i, 0], x[i, 1], x[i, 2]
+            if w[i] > 0.0:
+                v[i, 2] += h * gz
+                x[i, 0] += h * v[i, 0]
+                x[i, 1] += h * v[i, 1]
+                x[i, 2] += h * v[i, 2]
+        for i in range(n - 1):
+            dx, dy, dz = x[i, 0] - x[i + 1, 0], x[i, 1] - x[i + 1, 1], x[i, 2] - x[i + 1, 2]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            wsum = w[i] + w[i + 1]
+            if wsum == 0.0 or length == 0.0:
+                continue
+            s = (rest[i] - length) / (wsum * length)
+            x[i, 0] += w[i] * s * dx
+            x[i, 1] += w[i] * s * dy
+            x[i, 2] += w[i] * s * dz
+            x[i + 1, 0] -= w[i + 1] * s * dx
+            x[i + 1, 1] -= w[i + 1] * s * dy
+            x[i + 1, 2] -= w[i + 1] * s * dz
+        inv_h = 1.0 / h
+        for i in range(n):
+            v[i, 0] = (x[i, 0] - x0[i, 0]) * inv_h
+            v[i, 1] = (x[i, 1] - x0[i, 1]) * inv_h
+            v[i, 2] = (x[i, 2] - x0[i, 2]) * inv_h
+
+
+def _best(fn, repeats: int, prepare=None) -> float:
+    """Least wall time of ``fn()`` in seconds over ``repeats`` runs (``prepare()`` untimed before each)."""
+    return _best_pair(fn, None, repeats, prepare)[0]
+
+
+def _best_pair(fn, other, repeats: int, prepare=None, prepare_other=None) -> tuple:
+    """Least wall times of ``fn()`` and ``other()`` (``None``: not run) in seconds over ``repeats`` runs each,
+    alternated so that a change of the machine's load hits both; ``prepare*()`` run untimed before each."""
+    best = [math.inf, math.inf]
+    for _ in range(repeats):
+        for k, (f, prep) in enumerate(((fn, prepare), (other, prepare_other))):
+            if f is None:
+                continue
+            if prep is not None:
+                prep()
+            t = time.perf_counter()
+            f()
+            best[k] = min(best[k], time.perf_counter() - t)
+    return best[0], best[1]
+
+
+def _chain(sim: mjcable.Simulator) -> kernels.Chain:
+    """The solver state of ``sim``'s scene built the way the particle backend builds it, at ``sim``'s state."""
+    entry = catalog.get(sim.model)
+    rules = entry.rules(sim.scene, sim.settings, sim.dt / sim.settings.substeps)
+    S = state.new_chain(sim.scene, rules, sim.settings, sim.dt)
+    np.copyto(S.x, sim.positions)
+    np.copyto(S.v, sim.velocities)
+    return S
+
+
+def _snapshot(S: kernels.Chain):
+    """A function that copies the arrays of ``S`` back to their present values."""
+    saved = [a.copy() for a in S]
+    return lambda: [np.copyto(a, b) for a, b in zip(S, saved)]
+
+
+def bench_hang(repeats: int) -> dict:
+    """``step(1.0)`` on ``hang`` from the start state against :func:`minimal_loop` on the same particles."""
+    sim = mjcable.Simulator(mjcable.scenes.get("hang"), "xpbd", **SETTINGS)
+    steps = int(round(SECONDS / sim.dt))
+    S = _chain(sim)  # the start state
+    h = sim.dt / sim.settings.substeps
+    n_sub = steps * sim.settings.substeps
+    gz = float(sim.mj_model.opt.gravity[2])
+    restore = _snapshot(S)
+    sim.step(0.01)  # warm-up (compiles or loads the kernels)
+    minimal_loop(S.x, S.v, S.x0, S.w, S.rest, h, gz, 1)
+    minimal = lambda: minimal_loop(S.x, S.v, S.x0, S.w, S.rest, h, gz, n_sub)  # noqa: E731
+    t_sim, t_min = _best_pair(lambda: sim.step(SECONDS), minimal, repeats, sim.reset, restore)
+    assert sim.steps == steps
+    return dict(sim=t_sim, minimal=t_min, steps=steps, substeps=n_sub)
+
+
+def bench_table(repeats: int) -> dict:
+    """``step(1.0)`` on ``table`` with the cable at rest on the table, against the kernel plus one ``mj_collision``
+    per step on a copy of the same state and contacts; and ``step(1.0)`` from the start."""
+    scene = mjcable.scenes.get("table")
+    sim = mjcable.Simulator(scene, "xpbd", **SETTINGS)
+    sim.step(0.01)
+    t_start = _best(lambda: sim.step(SECONDS), repeats, prepare=sim.reset)
+    sim.reset()
+    sim.step(1.5)  # lying on the table: every step queries its contacts from here on
+    S = _chain(sim)
+    contacts = sim.diagnostics["contacts"]
+    steps = int(round(SECONDS / sim.dt))
+    # the proxy posed from the particles, the contacts it finds, then per step: mj_collision + one kernel call
+    m = catalog.get(sim.model).build(scene, sim.settings, sim.dt).compile()
+    d = mujoco.MjData(m)
+    n = scene.cable.n_segments
+    geoms = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, proxy.segment_name(i)) for i in range(n)])
+    query_kernels.proxy_poses(S.x, d.mocap_pos[:n], d.mocap_quat[:n])
+    mujoco.mj_kinematics(m, d)
+    margin = sim.settings.contact_margin + 0.5 * 9.81 * sim.dt**2  # at rest: the margin and one step's fall
+    C = ObstacleContacts(scene, m, d, geoms).query(S.x, margin, state.empty_contacts())
+    substeps = sim.settings.substeps
+    restore = _snapshot(S)
+
+    def reference():
+        for _ in range(steps):
+            mujoco.mj_collision(m, d)
+            kernels.run_substeps_flat(*S, *C, substeps, kernels.PHASE_ALL, 0)
+
+    t_sim, t_ref = _best_pair(lambda: sim.step(SECONDS), reference, repeats, prepare_other=restore)
+    return dict(sim=t_sim, reference=t_ref, start=t_start, contacts=contacts, ref_contacts=len(C.seg), steps=steps)
+
+
+def bench_native(repeats: int) -> dict:
+    """Every native model's ``step(1.0)`` on ``hang`` (default settings) from the start state."""
+    scene = mjcable.scenes.get("hang")
+    out = {}
+    for model in catalog.names("native"):
+        try:
+            sim = mjcable.Simulator(scene, model)
+        except (NotImplementedError, ImportError) as exc:  # a model not written yet
+            out[model] = exc
+            continue
+        sim.step(0.01)
+        out[model] = _best(lambda: sim.step(SECONDS), repeats, prepare=sim.reset)
+    return out
+
+
+def _machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
+    return (f"{cpu}, {os.cpu_count()} cores, load average {load} (1, 5, 15 min); Python "
+            f"{platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "
+            f"mujoco {mujoco.__version__}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3, help="runs per measurement; the best counts (default 3)")
+    args = parser.parse_args()
+    if args.repeats < 1:
+        parser.error(f"--repeats must be >= 1, got {args.repeats}")
+    ms = 1e3
+    setting = ", ".join(f"{k}={v!r}" for k, v in SETTINGS.items())
+    print(f"Machine: {_machine()}")
+    print(f"Best of {args.repeats}.\n")
+    print("| measurement | time | reference | ratio |")
+    print("|---|---:|---:|---:|")
+    h = bench_hang(args.repeats)
+    print(f"| `hang`, 50 segments, xpbd ({setting}): `step(1.0)` ({h['steps']} steps) vs minimal numba loop "
+          f"({h['substeps']} substeps) | {h['sim'] * ms:.2f} ms | {h['minimal'] * ms:.2f} ms | "
+          f"{h['sim'] / h['minimal']:.2f}× |")
+    t = bench_table(args.repeats)
+    print(f"| `table`, 50 segments, same settings, at rest on the table ({t['contacts']} contacts): `step(1.0)` vs "
+          f"kernel + one `mj_collision` per step ({t['ref_contacts']} contacts) | {t['sim'] * ms:.2f} ms | "
+          f"{t['reference'] * ms:.2f} ms | {t['sim'] / t['reference']:.2f}× |")
+    print(f"| `table`, same settings: `step(1.0)` from the start (falls, then lands) | {t['start'] * ms:.2f} ms | "
+          f"| |")
+    for model, sec in bench_native(args.repeats).items():
+        shown = f"{sec * ms:.2f} ms" if isinstance(sec, float) else f"unavailable ({type(sec).__name__})"
+        print(f"| `hang`, 50 segments, {model} (native, defaults): `step(1.0)` | {shown} | | |")
+
+
+if __name__ == "__main__":
+    main()
