@@ -36,12 +36,11 @@ def proxy_builder(scene: Scene, settings: ParticleSettings, dt: float) -> mujoco
 
 
 def _obstacle_bounds(obstacles: Optional[ObstacleContacts]) -> tuple:
-    """The static obstacles as :meth:`ObstacleContacts.touching` tests them, for the step driver: world boxes
-    (lo, hi (B, 3)) and planes (unit normal, point (F, 3)); empty for none. (ObstacleContacts keeps them private:
-    they are read here, in this one place, so that both tests use the very same numbers.)"""
+    """The static obstacles as :meth:`ObstacleContacts.touching` tests them, for the step driver
+    (:attr:`ObstacleContacts.bounds`); empty for none."""
     if obstacles is None:
         return tuple(np.zeros((0, 3)) for _ in range(4))
-    return obstacles._box_lo, obstacles._box_hi, obstacles._plane_n, obstacles._plane_p
+    return obstacles.bounds
 
 
 class ParticleBackend:

@@ -54,6 +54,12 @@ class ObstacleContacts:
         self._geo = np.zeros((0, 6))
         self._lam = np.zeros((0, 2))
 
+    @property
+    def bounds(self) -> tuple:
+        """The static obstacles as :meth:`touching` tests them: world boxes (lo, hi (B, 3)) and planes (unit normal,
+        point (F, 3)), for a compiled step loop that must test exactly the same."""
+        return self._box_lo, self._box_hi, self._plane_n, self._plane_p
+
     def touching(self, x: np.ndarray, reach: float) -> bool:
         """Whether the bounding box of particles ``x`` (n, 3), grown by ``reach`` metres, touches any obstacle's."""
         return query_kernels.touches_obstacles(x, reach, self._box_lo, self._box_hi, self._plane_n, self._plane_p)
