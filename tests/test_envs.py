@@ -10,14 +10,16 @@ import unittest
 
 import numpy as np
 import pytest
+from dm_control.rl import control
+from dm_control.utils import rewards
 from dm_env import test_utils
 from scipy import optimize
 
 import mjcable
-from mjcable import catalog, envs
-
+from mjcable import catalog, envs, geometry
+from mjcable.envs import projection
 from mjcable.envs import workspace as ws
-from mjcable.scene import Box, Capsule, Cylinder, Floor, Sphere
+from mjcable.scene import Box, Capsule, Cylinder, Floor, Pin, Sphere
 
 MODELS = mjcable.MODELS
 
@@ -322,6 +324,221 @@ def test_clamp_keeps_grippers_out_of_the_peg_and_within_reach():
     assert arc < 1.02 * cable.length  # nearly straight, stretched at most by its own elasticity (springs: ~1 %)
 
 
+# --- the compiled clamp against the previous numpy implementation ---------------------------------------------------
+# The reference below is the workspace clamp as it was written in numpy (one projection per Simulator step, signed
+# distances from mjcable.geometry): the compiled clamp and the environments' vectorised control step must agree with
+# it to round-off.
+
+
+def _reference_violation(workspace, k, p, pins, engaged) -> float:
+    worst = float(max(np.max(np.asarray(workspace.low) - p), np.max(p - np.asarray(workspace.high)), 0.0))
+    for t in workspace.tethers(k):
+        if engaged[t.pin]:
+            worst = max(worst, float(np.linalg.norm(p - pins[t.pin])) - t.max_distance)
+    for ob in workspace.scene.obstacles:
+        worst = max(worst, workspace.clearance - geometry.signed_distance(ob, p)[0])
+    return worst
+
+
+def _reference_project(workspace, k, p, pins, engaged):
+    for _ in range(4):  # rounds of box, tethers, obstacles
+        p = np.clip(p, workspace.low, workspace.high)
+        for t in workspace.tethers(k):
+            if engaged[t.pin]:
+                offset = p - pins[t.pin]
+                d = float(np.linalg.norm(offset))
+                if d > t.max_distance:
+                    p = pins[t.pin] + offset * (t.max_distance / d)
+        for ob in workspace.scene.obstacles:
+            d, normal = geometry.signed_distance(ob, p)
+            if d < workspace.clearance:
+                p = p + (workspace.clearance - d) * normal
+        if _reference_violation(workspace, k, p, pins, engaged) <= 1e-9:
+            return p
+    return None
+
+
+def _reference_move(workspace, k, start, displacement, pins, engaged) -> np.ndarray:
+    p = np.asarray(start, dtype=np.float64).copy()
+    length = float(np.linalg.norm(displacement))
+    if length == 0.0:
+        return p
+    count = max(1, math.ceil(length / (0.5 * workspace.clearance)))  # increments of at most half the clearance
+    for _ in range(count):
+        projected = _reference_project(workspace, k, p + displacement / count, pins, engaged)
+        if projected is None:
+            break
+        p = projected
+    return p
+
+
+def _reference_step(physics, nstep: int = 1) -> None:
+    """The Physics' control step as it was: clamp and send every commanded gripper before each Simulator step."""
+    commands, physics.reference_commands = getattr(physics, "reference_commands", {}), {}
+    sim = physics.simulator
+    with physics.check_invalid_state():
+        for _ in range(nstep):
+            if commands:
+                pins, engaged = physics.pin_positions(), physics.pins_engaged()
+                for k, d in commands.items():
+                    pins[k] = _reference_move(physics.workspace, k, pins[k], d / nstep, pins, engaged)
+                    sim.move_gripper(k, pins[k])
+            sim.step()
+
+
+def _reference_command(physics, displacements) -> None:
+    physics.reference_commands = {k: np.asarray(d, dtype=np.float64) for k, d in displacements.items()}
+
+
+_ALL_SHAPES = (Floor(pos=(0.1, -0.2, 0.05), euler=(7, -4, 0)), Box(size=(0.1, 0.2, 0.15), pos=(0.5, 0.1, 0.4),
+                                                                    euler=(10, 20, 30)),
+               Sphere(radius=0.1, pos=(-0.3, 0.1, 0.5)), Capsule(radius=0.05, half_length=0.2, pos=(0.1, -0.25, 0.5),
+                                                                 euler=(40, 0, 10)),
+               Cylinder(radius=0.08, half_length=0.15, pos=(-0.1, 0.25, 0.45), euler=(0, 60, 20)))
+
+
+def test_compiled_signed_distances_agree_with_geometry():
+    rng = np.random.default_rng(0)
+    packed = projection.pack_obstacles(_ALL_SHAPES)
+    for i, ob in enumerate(_ALL_SHAPES):
+        centre = np.asarray(ob.pos)
+        axis = geometry.rotation(ob.euler)[:, 2]
+        cloud = centre + rng.normal(scale=0.2, size=(2000, 3))  # inside and outside, every face, rim and cap
+        points = np.concatenate([cloud, centre[None]])  # the centre: the sphere's normal is a convention, (0, 0, 1)
+        d, normals = projection.signed_distances(points, packed)
+        expected, expected_normals = geometry.signed_distances(points, ob)
+        assert np.any(expected < 0.0) and np.any(expected > 0.0), ob  # points on both sides of the surface
+        np.testing.assert_allclose(d[i], expected, rtol=0.0, atol=1e-9, err_msg=ob.shape)
+        np.testing.assert_allclose(normals[i], expected_normals, rtol=0.0, atol=1e-9, err_msg=ob.shape)
+        # on the axis (up to round-off) the round shapes' normals point anywhere sideways: distances agree
+        axis = centre + rng.uniform(-0.3, 0.3, (50, 1)) * geometry.rotation(ob.euler)[:, 2]
+        d, normals = projection.signed_distances(axis, packed)
+        np.testing.assert_allclose(d[i], geometry.signed_distances(axis, ob)[0], rtol=0.0, atol=1e-9)
+        np.testing.assert_allclose(np.linalg.norm(normals[i], axis=1), 1.0, atol=1e-9)
+
+
+def test_compiled_clamp_agrees_with_the_previous_implementation():
+    # two grippers, a world pin and a socket on a 1 m cable at 1 m, an obstacle of every shape below it
+    cable = mjcable.CableSpec(((-0.5, 0.0, 1.0), (0.5, 0.0, 1.0)), 20, 0.01, 0.1)
+    scene = mjcable.Scene(cable, pins=(Pin(0, "gripper"), Pin(8, "socket", release_force=1.0), Pin(13),
+                                       Pin(-1, "gripper")), obstacles=_ALL_SHAPES)
+    workspace = envs.Workspace(scene, (-0.6, -0.5, 0.0), (0.7, 0.5, 1.2), clearance=0.02)
+    rng = np.random.default_rng(1)
+    pins = np.array([cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))])
+    stopped = 0
+    for _ in range(300):
+        k = int(rng.choice(scene.grippers))
+        engaged = rng.uniform(size=len(pins)) < 0.7
+        start = pins[k] + rng.normal(scale=0.3, size=3)
+        displacement = rng.normal(scale=0.04, size=3)  # up to several increments of half the clearance
+        expected = _reference_move(workspace, k, start, displacement, pins, engaged)
+        np.testing.assert_allclose(workspace.move(k, start, displacement, pins, engaged), expected, rtol=0.0,
+                                   atol=1e-9)
+        assert workspace.violation(k, start, pins, engaged) == pytest.approx(
+            _reference_violation(workspace, k, start, pins, engaged), abs=1e-9)
+        stopped += not np.allclose(expected, start + displacement)
+    assert 30 < stopped < 270  # both free motions and clamped ones were compared
+
+    # whole control steps: both grippers moved in turn, nstep times, each seeing the other's new position
+    for _ in range(30):
+        engaged = rng.uniform(size=len(pins)) < 0.7
+        commands = {k: rng.normal(scale=0.05, size=3) for k in rng.permutation(scene.grippers).tolist()}
+        nstep = int(rng.integers(1, 12))
+        start = pins.copy()
+        positions, moved = workspace.paths(commands, nstep, start, engaged)
+        reference = start.copy()
+        for i in range(nstep):
+            for g, (k, d) in enumerate(commands.items()):
+                before = reference[k].copy()
+                reference[k] = _reference_move(workspace, k, reference[k], d / nstep, reference, engaged)
+                np.testing.assert_allclose(positions[i, g], reference[k], rtol=0.0, atol=1e-9)
+                assert moved[i, g] == (not np.array_equal(reference[k], before))
+        np.testing.assert_array_equal(start, pins)  # the caller's pins are left alone
+        rest, _ = workspace.paths(commands, nstep, start, engaged, steps=max(1, nstep // 2))
+        np.testing.assert_array_equal(rest, positions[:len(rest)])  # the first steps of the same path
+
+
+class _LateRelease(mjcable.Simulator):
+    """A Simulator that reports its sockets as holding until ``late`` steps have passed (the workspace's tethers then
+    hold the gripper back until that step, whatever the cable did)."""
+
+    late = 0
+
+    @property
+    def released(self) -> frozenset:
+        return super().released if self.steps >= self.late else frozenset()
+
+
+def _pair(task: str, model: str, late: int = 0):
+    """Two environments of ``task`` on ``model`` with the same seed: the one under test, and one stepped by the
+    reference control step; both start on a :class:`_LateRelease` Simulator reporting releases from step ``late``
+    (an episode of a new start shape gets a plain Simulator, in both alike)."""
+    pair = []
+    for reference in (False, True):
+        env = envs.load(task, model, random=0)
+        sim = env.physics.simulator
+        late_sim = _LateRelease(sim.scene, sim.model, dt=sim.dt, **dataclasses.asdict(sim.settings))
+        late_sim.late = late
+        physics_class = type(env.physics)
+        if reference:
+            physics_class = type("Reference", (physics_class,), {"step": _reference_step,
+                                                                 "command_grippers": _reference_command})
+        physics = physics_class.from_simulator(late_sim)
+        pair.append(control.Environment(physics, env.task, time_limit=env.task.default_time_limit,
+                                        control_timestep=env.control_timestep()))
+    return pair
+
+
+def _assert_same_steps(a, b) -> None:
+    assert a.step_type == b.step_type
+    assert a.reward == pytest.approx(b.reward, abs=1e-9)
+    for name in a.observation:
+        np.testing.assert_allclose(a.observation[name], b.observation[name], rtol=0.0, atol=1e-9, err_msg=name)
+
+
+_FIRST_OF_EACH_FAMILY = {catalog.names(family)[0] for family in catalog.FAMILIES}  # the quick run's models
+
+
+@pytest.mark.parametrize("model", [m if m in _FIRST_OF_EACH_FAMILY else pytest.param(m, marks=pytest.mark.slow)
+                                   for m in MODELS])
+@pytest.mark.parametrize("task", TASKS)
+def test_control_step_matches_the_per_step_reference(task, model):
+    env, reference = _pair(task, model)
+    _assert_same_steps(env.reset(), reference.reset())
+    for action in (a for a in _random_actions(env.action_spec(), 6, seed=3) for _ in range(RANDOM_HOLD)):
+        _assert_same_steps(env.step(action), reference.step(action))  # a random walk, into the walls too
+
+
+@pytest.mark.parametrize("family", catalog.FAMILIES)
+def test_a_socket_letting_go_mid_step_frees_the_gripper_for_the_rest_of_it(family):
+    late = 85  # the socket reports letting go after the 5th Simulator step of the 9th control step
+    env, reference = _pair("unplug", catalog.names(family)[0], late=late)
+    _assert_same_steps(env.reset(), reference.reset())
+    physics = env.physics
+    nstep = round(env.control_timestep() / physics.timestep())
+    step = float(np.max(env.action_spec().maximum))
+    reach = physics.workspace.tether(1, 0)
+    for control_step in range(late // nstep + 2):  # pull straight away from the socket at full speed
+        away = physics.gripper_positions()[0] - physics.socket()
+        action = step * away / np.max(np.abs(away))
+        before = physics.gripper_positions()[0]
+        _assert_same_steps(env.step(action), reference.step(action))
+        moved = physics.gripper_positions()[0] - before
+        if control_step == late // nstep - 1:  # held at the tether's length since the 7th control step
+            assert math.dist(physics.gripper_positions()[0], physics.socket()) == pytest.approx(reach, abs=1e-9)
+            assert np.linalg.norm(moved) < 1e-9
+        if control_step == late // nstep:  # let go part way: the rest of the step's motion, not more, not less
+            np.testing.assert_allclose(moved, action * (nstep - late % nstep) / nstep, rtol=0.0, atol=1e-9)
+
+
+def test_tolerance_is_dm_controls():
+    rng = np.random.default_rng(4)
+    for x in rng.normal(scale=0.5, size=200):
+        for low, high, margin in ((0.0, 0.02, 0.3), (-0.01, 0.01, 0.2), (0.1, math.inf, 0.05)):
+            expected = rewards.tolerance(x, bounds=(low, high), margin=margin)
+            assert envs.base.tolerance(x, low, high, margin) == pytest.approx(expected, rel=1e-12, abs=1e-15)
+
+
 # --- task physics, on every model -----------------------------------------------------------------------------------
 
 
@@ -342,6 +559,30 @@ def test_unplug_pull_releases_and_rest_does_not(model):
     assert time_step.observation["released"][0] == 1.0
     assert time_step.reward >= 0.5
 
+
+
+def test_drape_measures_match_their_definitions():
+    env = envs.load("drape", catalog.names("particle")[0], random=0)
+    env.reset()
+    physics = env.physics
+    step = float(np.max(env.action_spec().maximum))
+    below = set()
+    for i in range(80):  # up beside the peg, over it, then down on the far side: legs above and below its top
+        away = np.sign(physics.peg_top()[0] - physics.gripper_positions()[0, 0])
+        env.step(np.array([away * step if 20 <= i < 50 else 0.0, 0.0, step if i < 20 else -step]))
+        x, top = physics.centreline(), physics.peg_top()
+        middle = len(x) // 2
+        legs = []
+        for half, end in ((x[: middle + 1], x[0]), (x[middle:], x[-1])):  # mean x below the top, else the end's
+            under = half[half[:, 2] < top[2]]
+            below.add(len(under) > 0)
+            legs.append(np.mean(under[:, 0]) if len(under) else end[0])
+        highest = x[np.argmax(x[:, 2])]
+        gap = np.linalg.norm(highest - [top[0], highest[1], top[2] + physics.scene.cable.radius])
+        np.testing.assert_allclose(physics.leg_positions(), legs, rtol=0.0, atol=1e-12)
+        assert physics.rest_gap() == pytest.approx(gap, abs=1e-12)
+        np.testing.assert_array_equal(physics.measures()[2], physics.ends())
+    assert below == {True, False}  # halves with particles below the peg's top and halves without
 
 @pytest.mark.parametrize("model", MODELS)
 def test_reach_sag_settles_to_the_catenary_and_rewards_its_target(model):
@@ -366,7 +607,7 @@ def test_reach_sag_settles_to_the_catenary_and_rewards_its_target(model):
 # One model's own physics cannot hold the draped cable: named here as a documented limitation, not a model list (a
 # model added to the catalogue is tested like every other).
 _DRAPE_KNOWN_LIMITATION = {"springs": "the springs bead chain slides off the peg once the gripper stops"}
-DRAPE_SETTLE_STEPS = 150  # 3 s holding still: the lightly damped capsule chains' free leg stops swinging across the axis
+DRAPE_SETTLE_STEPS = 150  # 3 s holding still: the lightly damped capsule chains' free leg stops swinging across it
 
 
 @pytest.mark.slow

@@ -5,7 +5,9 @@
 the Simulator, so the native models (stepped by MuJoCo) and the particle solvers (the cable stepped by the solver,
 the rigid scene and the proxy capsules by MuJoCo) run, observe and render alike. ``physics.timestep()`` is the
 Simulator's ``dt``; one control step is ``control_timestep / dt`` Simulator steps, and the grippers move a
-``1 / n``-th of their commanded displacement before each of them, clamped to the task's :class:`Workspace`.
+``1 / n``-th of their commanded displacement before each of them, clamped to the task's :class:`Workspace`. The
+clamped positions of all ``n`` steps come from one compiled call (:meth:`Workspace.paths`); the control step then
+runs no Python per step beyond one ``move_gripper`` per moving gripper and the Simulator's own step.
 
 The Physics keeps no copy of the Simulator's state: positions, velocities (the model's own), gripper targets and
 released sockets are read from :attr:`CablePhysics.simulator` when asked for, and the pins that are not grippers
@@ -59,6 +61,7 @@ __all__ = [
     "register",
     "scene_with_pins",
     "env_defaults",
+    "tolerance",
     "DEFAULT_CONTROL_TIMESTEP",
     "MAX_GRIPPER_SPEED",
     "FAMILY_DEFAULTS",
@@ -75,6 +78,24 @@ _DEFAULT_DT = 0.002  # s, the Simulator's default step
 # module docstring: at 4 substeps the particle solvers' cable stretches ~2 % under unplug's pull, which then never
 # reaches the socket's release force).
 FAMILY_DEFAULTS = {"particle": {"substeps": 10}}
+_VALUE_AT_MARGIN = 0.1  # dm_control's rewards.tolerance default
+_GAUSSIAN_SCALE = math.sqrt(-2.0 * math.log(_VALUE_AT_MARGIN))
+
+
+def tolerance(x: float, low: float, high: float, margin: float) -> float:
+    """``dm_control.utils.rewards.tolerance(x, bounds=(low, high), margin=margin)`` (its default Gaussian sigmoid,
+    0.1 at ``margin`` outside the bounds) for one number, in plain floats: 1 inside ``[low, high]``, falling off
+    as ``exp(-(d / margin)² ln 10)`` with the distance ``d`` to the nearer bound.
+
+    Args:
+      x: the value (units of the bounds).
+      low, high: the bounds (``low <= high``; either may be infinite).
+      margin: the distance (> 0) at which the reward falls to 0.1.
+    """
+    if low <= x <= high:
+        return 1.0
+    d = (low - x if x < low else x - high) / margin
+    return math.exp(-0.5 * (d * _GAUSSIAN_SCALE) ** 2)
 
 
 def env_defaults(model: str) -> dict:
@@ -111,6 +132,12 @@ class CablePhysics(mujoco.Physics):
 
     def _attach(self, simulator: Simulator) -> None:
         self._sim = simulator
+        scene = simulator.scene
+        self._grippers = list(scene.grippers)
+        self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]  # the pins that can let go
+        anchors = [scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
+        self._anchors = np.array(anchors, dtype=np.float64).reshape(-1, 3)  # the pins' start particles (the scene's)
+        self._anchors.setflags(write=False)
         self._reload_from_data(wrapper.MjData(simulator.mj_data))
 
     # --- episodes -------------------------------------------------------------------------------------------------
@@ -155,15 +182,19 @@ class CablePhysics(mujoco.Physics):
 
     def command_grippers(self, displacements: Dict[int, np.ndarray]) -> None:
         """Move gripper pins by ``displacements`` ({pin index: (3,) metres}) over the next :meth:`step`."""
-        grippers = self._sim.scene.grippers
         for k in displacements:
-            if k not in grippers:
-                raise ValueError(f"displacements must be keyed by gripper pins {grippers}, got pin {k!r}")
+            if k not in self._grippers:
+                raise ValueError(f"displacements must be keyed by gripper pins {tuple(self._grippers)}, got pin {k!r}")
         self._commands = {k: np.asarray(d, dtype=np.float64) for k, d in displacements.items()}
 
     def step(self, nstep: int = 1) -> None:
         """Advance ``nstep`` Simulator steps of ``dt``, moving the commanded grippers ``1 / nstep`` of the way
         before each.
+
+        The grippers' clamped positions after every step are computed in one call (:meth:`Workspace.paths`), again
+        for the remaining steps if a socket lets go part way (its tether then no longer holds); a gripper that does
+        not move in a step is not sent anywhere, and steps with no gripper moving run as one
+        :meth:`mjcable.Simulator.step`.
 
         Raises:
           mjcable.SimulationDivergedError: the simulation diverged.
@@ -172,15 +203,46 @@ class CablePhysics(mujoco.Physics):
         if self._commands and self._workspace is None:
             raise RuntimeError("start an episode (physics.start) before commanding grippers")
         commands, self._commands = self._commands, {}
-        sim = self._sim
         with self.check_invalid_state():
-            for _ in range(nstep):
-                if commands:
-                    pins, engaged = self.pin_positions(), self.pins_engaged()
-                    for k, displacement in commands.items():
-                        pins[k] = self._workspace.move(k, pins[k], displacement / nstep, pins, engaged)
-                        sim.move_gripper(k, pins[k])
-                sim.step()
+            if commands:
+                self._step_moving(commands, nstep)
+            else:
+                self._advance(nstep)
+
+    def _advance(self, count: int) -> None:
+        """``count`` Simulator steps in one call."""
+        sim = self._sim
+        target = sim.steps + count
+        sim.step(count * sim.dt)
+        while sim.steps < target:  # pragma: no cover - a carried remainder rounding the count down
+            sim.step()
+
+    def _step_moving(self, commands: Dict[int, np.ndarray], nstep: int) -> None:
+        sim, grippers = self._sim, list(commands)
+        done = 0
+        while done < nstep:
+            released = sim.released
+            watch = not released.issuperset(self._sockets)  # a socket may let go: check after every step
+            path, moved = self._workspace.paths(commands, nstep, self.pin_positions(), self._engaged(released),
+                                                steps=nstep - done)
+            moved = moved.tolist()  # (steps, grippers): whether a gripper goes anywhere
+            i, count = 0, len(path)
+            while i < count:
+                if any(moved[i]):
+                    for g, k in enumerate(grippers):
+                        if moved[i][g]:
+                            sim.move_gripper(k, path[i, g])
+                    sim.step()
+                    i += 1
+                else:  # steps where no gripper moves: at once, unless a socket may let go in between
+                    j = i + 1
+                    while not watch and j < count and not any(moved[j]):
+                        j += 1
+                    self._advance(j - i)
+                    i = j
+                if watch and sim.released != released:
+                    break  # a socket let go: its tether no longer holds the rest of the path
+            done += i
 
     def render(self, height=240, width=320, camera_id=-1, overlays=(), depth=False, segmentation=False,
                scene_option=None, render_flag_overrides=None, scene_callback=None) -> np.ndarray:
@@ -222,26 +284,33 @@ class CablePhysics(mujoco.Physics):
         return self._sim.positions
 
     def centreline_velocity(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` particle velocities in m/s, the model's own (:attr:`mjcable.Simulator.velocities`)."""
+        """``(n_segments + 1, 3)`` particle velocities in m/s, the model's own
+        (:attr:`mjcable.Simulator.velocities`)."""
         return self._sim.velocities
 
     def gripper_positions(self) -> np.ndarray:
         """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.grippers``."""
         return self._sim.gripper_positions
 
+    def anchors(self) -> np.ndarray:
+        """``(n_pins, 3)`` the pins' start particles in metres, from the scene (where world pins and sockets stay)."""
+        return self._anchors.copy()
+
     def pin_positions(self) -> np.ndarray:
         """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the other pins
         (world pins, sockets) at their start particles."""
-        scene = self._sim.scene
-        pins = np.array([scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))],
-                        dtype=np.float64).reshape(-1, 3)
-        pins[list(scene.grippers)] = self._sim.gripper_positions
+        pins = self._anchors.copy()
+        pins[self._grippers] = self._sim.gripper_positions
         return pins
 
     def pins_engaged(self) -> np.ndarray:
         """``(n_pins,)`` bool: whether each pin still holds the cable (a released socket does not)."""
-        engaged = np.ones(len(self._sim.scene.pins), dtype=bool)
-        engaged[list(self._sim.released)] = False
+        return self._engaged(self._sim.released)
+
+    def _engaged(self, released: frozenset) -> np.ndarray:
+        engaged = np.ones(len(self._anchors), dtype=bool)
+        if released:
+            engaged[list(released)] = False
         return engaged
 
 
@@ -269,6 +338,8 @@ class CableTask(base.Task):
     def __init__(self, *, random=None, control_timestep: float = DEFAULT_CONTROL_TIMESTEP):
         super().__init__(random=random)
         self._max_step = MAX_GRIPPER_SPEED * control_timestep
+        self._action_spec = specs.BoundedArray((3 * len(self.controlled),), np.float64, -self._max_step,
+                                               self._max_step, name="gripper_displacement")
 
     # --- to implement ---------------------------------------------------------------------------------------------
 
@@ -296,8 +367,7 @@ class CableTask(base.Task):
 
     def action_spec(self, physics: CablePhysics) -> specs.BoundedArray:
         """Displacements of the controlled grippers over one control step: ``(3 * len(controlled),)`` metres."""
-        shape = (3 * len(self.controlled),)
-        return specs.BoundedArray(shape, np.float64, -self._max_step, self._max_step, name="gripper_displacement")
+        return self._action_spec
 
     def before_step(self, action, physics: CablePhysics) -> None:
         spec = self.action_spec(physics)
@@ -308,14 +378,17 @@ class CableTask(base.Task):
         if a.shape != spec.shape:
             raise ValueError(f"action must have shape {spec.shape} (x, y, z displacement in metres of grippers "
                              f"{tuple(self.controlled)}), got shape {a.shape}: {action!r}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action must be finite, got {action!r}")
-        slack = _ACTION_RTOL * self._max_step
-        if np.any(a < spec.minimum - slack) or np.any(a > spec.maximum + slack):
-            bad = a[(a < spec.minimum - slack) | (a > spec.maximum + slack)]
-            raise ValueError(f"action entries must lie in [{-self._max_step:g}, {self._max_step:g}] m per control "
-                             f"step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s), got {bad.tolist()} in {action!r}")
-        a = np.clip(a, spec.minimum, spec.maximum)
+        size = np.abs(a)
+        if a.size and not size.max() <= self._max_step:  # beyond a bound, or NaN
+            bound = self._max_step + _ACTION_RTOL * self._max_step
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"action must be finite, got {action!r}")
+            if not np.all(size <= bound):
+                bad = a[size > bound]
+                raise ValueError(f"action entries must lie in [{-self._max_step:g}, {self._max_step:g}] m per "
+                                 f"control step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s), got {bad.tolist()} "
+                                 f"in {action!r}")
+            a = np.clip(a, spec.minimum, spec.maximum)  # within the slack: onto the bound
         physics.command_grippers({k: a[3 * i: 3 * i + 3] for i, k in enumerate(self.controlled)})
 
     def get_observation(self, physics: CablePhysics) -> collections.OrderedDict:

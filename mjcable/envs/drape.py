@@ -10,8 +10,10 @@ both ends hang at least ``HANG_DROP`` below the peg's top.
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
-from dm_control.utils import rewards
 
 from mjcable import scenes
 from mjcable.envs import base
@@ -34,6 +36,27 @@ _CABLE_LENGTH = 1.0  # m: the cable starts straight down from the gripper, this 
 _PEG = next(ob for ob in scenes.get("drape").obstacles if isinstance(ob, Cylinder))  # the built-in scene's peg
 
 
+@numba.njit(cache=True)
+def _measures(x, top_x, top_z, radius):
+    """The reward's measures of centreline ``x`` (n+1, 3) over a peg whose top is at (``top_x``, ·, ``top_z``):
+    the rest gap (m) and the two legs' mean x (m), as :meth:`Physics.rest_gap` and :meth:`Physics.leg_positions`."""
+    highest = 0
+    for i in range(1, x.shape[0]):
+        if x[i, 2] > x[highest, 2]:  # the first of equals, as numpy's argmax
+            highest = i
+    gap = math.hypot(x[highest, 0] - top_x, x[highest, 2] - (top_z + radius))
+    middle = x.shape[0] // 2
+    legs = np.empty(2)
+    for leg, (first, last, end) in enumerate(((0, middle + 1, 0), (middle, x.shape[0], x.shape[0] - 1))):
+        total, count = 0.0, 0
+        for i in range(first, last):
+            if x[i, 2] < top_z:
+                total += x[i, 0]
+                count += 1
+        legs[leg] = total / count if count else x[end, 0]
+    return gap, legs
+
+
 class Physics(base.CablePhysics):
     """Adds read-outs of the peg, the cable's ends and its legs."""
 
@@ -43,32 +66,29 @@ class Physics(base.CablePhysics):
     def peg_top(self) -> np.ndarray:
         """(3,) the highest point of the peg's middle, metres."""
         peg = self.peg()
-        return np.asarray(peg.pos) + np.array([0.0, 0.0, peg.radius])
+        return np.array([peg.pos[0], peg.pos[1], peg.pos[2] + peg.radius])
 
     def ends(self) -> np.ndarray:
         """(2, 3) the cable's two ends, metres."""
         return self.centreline()[[0, -1]]
 
+    def measures(self) -> tuple:
+        """``(rest_gap, leg_positions, ends)`` of one read of the centreline (compiled): metres, (2,) metres,
+        (2, 3) metres; see :meth:`rest_gap`, :meth:`leg_positions` and :meth:`ends`."""
+        x = self.centreline()
+        top = self.peg_top()
+        gap, legs = _measures(x, top[0], top[2], self.scene.cable.radius)
+        return gap, legs, x[[0, -1]]
+
     def leg_positions(self) -> np.ndarray:
         """(2,) where the cable's two halves hang: the mean x (metres) of each half's particles below the peg's top,
         or its end's x if none is. Draped over the peg, the halves hang on either side of its axis."""
-        x = self.centreline()
-        middle = len(x) // 2
-        top = self.peg_top()[2]
-        legs = []
-        for half, end in ((x[: middle + 1], x[0]), (x[middle:], x[-1])):
-            below = half[half[:, 2] < top]
-            legs.append(float(np.mean(below[:, 0])) if len(below) else float(end[0]))
-        return np.array(legs)
+        return self.measures()[1]
 
     def rest_gap(self) -> float:
         """Distance in metres from the cable's highest point to where it would rest on the peg's top (the top line
         raised by the cable's radius, at the same y)."""
-        x = self.centreline()
-        highest = x[int(np.argmax(x[:, 2]))]
-        top = self.peg_top()
-        rest = np.array([top[0], highest[1], top[2] + self.scene.cable.radius])
-        return float(np.linalg.norm(highest - rest))
+        return self.measures()[0]
 
 
 @base.register(TIME_LIMIT, "benchmarking")
@@ -92,12 +112,10 @@ class Drape(base.CableTask):
         return {"peg_top": physics.peg_top(), "ends": physics.ends()}
 
     def get_reward(self, physics: Physics) -> float:
-        peg, top = physics.peg(), physics.peg_top()
-        rest = rewards.tolerance(physics.rest_gap(), bounds=(0.0, _REST_TOLERANCE), margin=_REST_MARGIN)
-        left, right = np.sort(physics.leg_positions())
-        apart = min(top[0] - left, right - top[0])
-        sides = rewards.tolerance(apart, bounds=(0.5 * peg.radius, np.inf), margin=_SIDE_MARGIN)
-        drop = top[2] - float(np.max(physics.ends()[:, 2]))
-        hang = rewards.tolerance(drop, bounds=(HANG_DROP, np.inf), margin=_HANG_MARGIN)
-        return float((rest + sides + hang) / 3.0)
-
+        gap, legs, ends = physics.measures()
+        top = physics.peg_top()
+        rest = base.tolerance(gap, 0.0, _REST_TOLERANCE, _REST_MARGIN)
+        apart = min(top[0] - min(legs), max(legs) - top[0])
+        sides = base.tolerance(apart, 0.5 * physics.peg().radius, math.inf, _SIDE_MARGIN)
+        hang = base.tolerance(top[2] - max(ends[0, 2], ends[1, 2]), HANG_DROP, math.inf, _HANG_MARGIN)
+        return (rest + sides + hang) / 3.0

@@ -8,7 +8,6 @@ ends minus the height of the cable's middle; each episode draws its target unifo
 from __future__ import annotations
 
 import numpy as np
-from dm_control.utils import rewards
 
 from mjcable.envs import base
 from mjcable.envs.workspace import Workspace
@@ -61,4 +60,4 @@ class ReachSag(base.CableTask):
 
     def get_reward(self, physics: Physics) -> float:
         error = physics.sag() - self._target
-        return float(rewards.tolerance(error, bounds=(-SAG_TOLERANCE, SAG_TOLERANCE), margin=SAG_MARGIN))
+        return base.tolerance(error, -SAG_TOLERANCE, SAG_TOLERANCE, SAG_MARGIN)

@@ -12,8 +12,9 @@ nears the target.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from dm_control.utils import rewards
 
 from mjcable.envs import base
 from mjcable.envs.workspace import Workspace
@@ -42,11 +43,11 @@ class Physics(base.CablePhysics):
         return self.centreline()[0]
 
     def socket(self) -> np.ndarray:
-        """(3,) the socket's anchor, metres."""
-        return self.pin_positions()[_PLUG]
+        """(3,) the socket's anchor, metres (the plug's start particle: a socket does not move)."""
+        return self.anchors()[_PLUG]
 
     def released(self) -> bool:
-        return not bool(self.pins_engaged()[_PLUG])
+        return _PLUG in self.simulator.released
 
 
 @base.register(TIME_LIMIT, "benchmarking")
@@ -76,9 +77,8 @@ class Unplug(base.CableTask):
 
     def get_reward(self, physics: Physics) -> float:
         if physics.released():
-            distance = float(np.linalg.norm(physics.plug() - self._target))
-            near = rewards.tolerance(distance, bounds=(0.0, TARGET_RADIUS), margin=_TARGET_MARGIN)
-            return float(0.5 + 0.5 * near)
-        tether = next(t for t in physics.workspace.tethers(_GRIPPER) if t.pin == _PLUG)
-        slack = tether.max_distance - float(np.linalg.norm(physics.gripper_positions()[0] - physics.socket()))
-        return float(_PULL_SHARE * rewards.tolerance(slack, bounds=(0.0, _TAUT_TOLERANCE), margin=_TAUT_MARGIN))
+            distance = math.dist(physics.plug(), self._target)
+            return 0.5 + 0.5 * base.tolerance(distance, 0.0, TARGET_RADIUS, _TARGET_MARGIN)
+        reach = physics.workspace.tether(_GRIPPER, _PLUG)
+        slack = reach - math.dist(physics.gripper_positions()[0], physics.socket())
+        return _PULL_SHARE * base.tolerance(slack, 0.0, _TAUT_TOLERANCE, _TAUT_MARGIN)

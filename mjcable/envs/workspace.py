@@ -11,26 +11,26 @@ A :class:`Workspace` clamps each commanded gripper motion, whatever the actions,
 
 Motions are split into increments no longer than half the clearance, each projected onto the allowed set, so a
 gripper cannot tunnel through a thin obstacle. A projection that fails to satisfy every constraint keeps the last
-allowed position: the gripper stops instead of entering a forbidden region.
+allowed position: the gripper stops instead of entering a forbidden region. The clamp runs compiled
+(:mod:`mjcable.envs.projection`); :meth:`Workspace.paths` clamps every step of a control step in one call.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Optional, Sequence, Tuple
+from typing import Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from mjcable import _validate
+from mjcable.envs import projection
 from mjcable.geometry import signed_distance
 from mjcable.scene import Scene
 
 __all__ = ["Workspace", "Tether", "STRETCH_MARGIN", "signed_distance"]
 
 STRETCH_MARGIN = 0.01  # fraction of the cable between two pins that their distance must stay short of
-_PROJECTION_ROUNDS = 4  # alternating projections (box, tethers, obstacles) per increment
-_TOLERANCE = 1e-9  # m: slack when checking a projected point against the constraints
-_INCREMENT_FRACTION = 0.5  # of the clearance: the longest straight increment of a gripper motion
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,9 +74,16 @@ class Workspace:
         object.__setattr__(self, "low", tuple(low))
         object.__setattr__(self, "high", tuple(high))
         object.__setattr__(self, "clearance", float(self.clearance))
-        object.__setattr__(self, "_low", low)
-        object.__setattr__(self, "_high", high)
-        object.__setattr__(self, "_tethers", {k: self._make_tethers(k) for k in self.scene.grippers})
+        object.__setattr__(self, "_box", np.array([low, high]))  # (2, 3) m
+        tethers = {k: self._make_tethers(k) for k in self.scene.grippers}
+        n_pins = len(self.scene.pins)
+        tether_max = np.full((n_pins, n_pins), np.inf)
+        for k, ts in tethers.items():
+            for t in ts:
+                tether_max[k, t.pin] = t.max_distance
+        object.__setattr__(self, "_tethers", tethers)
+        object.__setattr__(self, "_tether_max", tether_max)  # (n_pins, n_pins) m, row k gripper k's; inf: none
+        object.__setattr__(self, "_obstacles", projection.pack_obstacles(self.scene.obstacles))
 
     def _make_tethers(self, k: int) -> Tuple[Tether, ...]:
         scene = self.scene
@@ -92,6 +99,32 @@ class Workspace:
         """The tethers of gripper pin ``k`` (an index into ``scene.pins``)."""
         return self._tethers[k]
 
+    def tether(self, k: int, j: int) -> float:
+        """The longest allowed distance in metres between gripper pin ``k`` and pin ``j`` (while ``j`` holds the
+        cable): its :class:`Tether`'s ``max_distance``.
+
+        Raises:
+          ValueError: ``k`` is not a gripper pin, or ``j`` is ``k`` or not a pin.
+        """
+        self._check_grippers((k,))
+        if isinstance(j, bool) or j not in range(len(self.scene.pins)) or j == k:
+            raise ValueError(f"j must be another pin than {k}, one of 0..{len(self.scene.pins) - 1}, got {j!r}")
+        return float(self._tether_max[k, j])
+
+    def _check_grippers(self, grippers: Sequence[int]) -> None:
+        for k in grippers:
+            if isinstance(k, bool) or k not in self._tethers:
+                raise ValueError(f"k must be a gripper pin, one of {self.scene.grippers}, got {k!r}")
+
+    def _holding(self, grippers: Sequence[int], engaged: Sequence[bool]) -> np.ndarray:
+        """``(n_pins, n_pins)`` m: the tethers that hold (rows of grippers, columns of engaged pins), ``inf`` where
+        none does."""
+        self._check_grippers(grippers)
+        engaged = np.asarray(engaged, dtype=bool)
+        if engaged.shape != (len(self.scene.pins),):
+            raise ValueError(f"engaged must hold one bool per pin ({len(self.scene.pins)}), got {engaged!r}")
+        return self._tether_max if engaged.all() else np.where(engaged, self._tether_max, np.inf)
+
     def violation(self, k: int, position, pins: np.ndarray, engaged: Sequence[bool]) -> float:
         """How far (metres) gripper ``k`` at ``position`` lies outside the allowed set; 0 inside it.
 
@@ -101,31 +134,36 @@ class Workspace:
           pins: (n_pins, 3) current positions of every pin's fixed side (grippers' and anchors' positions).
           engaged: per pin, whether it still holds the cable (a released socket does not).
         """
-        p = np.asarray(position, dtype=np.float64)
-        worst = float(max(np.max(self._low - p), np.max(p - self._high), 0.0))
-        for t in self._tethers[k]:
-            if engaged[t.pin]:
-                worst = max(worst, float(np.linalg.norm(p - pins[t.pin])) - t.max_distance)
-        for ob in self.scene.obstacles:
-            worst = max(worst, self.clearance - signed_distance(ob, p)[0])
-        return worst
+        tethers = self._holding((k,), engaged)
+        return projection.violation(position, self._box, self.clearance, np.asarray(pins, dtype=np.float64),
+                                    tethers[k], self._obstacles)
 
-    def _project(self, k: int, p: np.ndarray, pins: np.ndarray, engaged: Sequence[bool]) -> Optional[np.ndarray]:
-        for _ in range(_PROJECTION_ROUNDS):
-            p = np.clip(p, self._low, self._high)
-            for t in self._tethers[k]:
-                if engaged[t.pin]:
-                    offset = p - pins[t.pin]
-                    d = float(np.linalg.norm(offset))
-                    if d > t.max_distance:
-                        p = pins[t.pin] + offset * (t.max_distance / d)
-            for ob in self.scene.obstacles:
-                d, normal = signed_distance(ob, p)
-                if d < self.clearance:
-                    p = p + (self.clearance - d) * normal
-            if self.violation(k, p, pins, engaged) <= _TOLERANCE:
-                return p
-        return None
+    def paths(self, displacements: Mapping[int, np.ndarray], nstep: int, pins: np.ndarray,
+              engaged: Sequence[bool], *, steps: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
+        """Where the grippers ``displacements`` commands are after each of ``nstep`` steps, each step moving every
+        one of them (in the mapping's order, each seeing the others' new positions) by ``1 / nstep`` of its
+        displacement with :meth:`move`; computed in one compiled call.
+
+        Args:
+          displacements: {gripper pin index: (3,) whole displacement in metres}.
+          nstep: number of steps (an integer >= 1).
+          pins: (n_pins, 3) positions of every pin's fixed side at the start, metres.
+          engaged: per pin, whether it holds the cable (fixed over the steps).
+          steps: how many of the ``nstep`` steps to take (an integer in [1, nstep]; default ``nstep``): the rest of
+            a control step whose path is recomputed part way, after a socket let go.
+
+        Returns:
+          ``(positions, moved)``: ``(steps, len(displacements), 3)`` gripper positions in metres, and
+          ``(steps, len(displacements))`` bool, whether each gripper's position changed in that step (bit for bit;
+          a gripper that stays need not be sent anywhere).
+        """
+        nstep = _validate.integer("nstep", nstep, low=1)
+        steps = nstep if steps is None else _validate.integer("steps", steps, low=1, high=nstep)
+        grippers = list(displacements)
+        tethers = self._holding(grippers, engaged)
+        d = np.array([displacements[k] for k in grippers], dtype=np.float64).reshape(len(grippers), 3)
+        return projection.move_paths(pins, grippers, d, nstep, self._box, self.clearance, tethers, self._obstacles,
+                                     steps=steps)
 
     def move(self, k: int, start, displacement, pins: np.ndarray, engaged: Sequence[bool]) -> np.ndarray:
         """Where gripper ``k`` ends when commanded from ``start`` by ``displacement``, clamped to the allowed set.
@@ -141,16 +179,6 @@ class Workspace:
           (3,) the new position: the commanded one projected onto the allowed set, increment by increment; where a
           projection fails the gripper stays at its last allowed position.
         """
-        p = np.asarray(start, dtype=np.float64).copy()
-        displacement = np.asarray(displacement, dtype=np.float64)
-        length = float(np.linalg.norm(displacement))
-        if length == 0.0:
-            return p
-        count = max(1, math.ceil(length / (_INCREMENT_FRACTION * self.clearance)))
-        step = displacement / count
-        for _ in range(count):
-            projected = self._project(k, p + step, pins, engaged)
-            if projected is None:
-                break
-            p = projected
-        return p
+        pins = np.array(pins, dtype=np.float64)
+        pins[k] = start
+        return self.paths({k: displacement}, 1, pins, engaged)[0][0, 0]
