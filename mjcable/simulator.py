@@ -93,6 +93,7 @@ class Simulator:
         self.dt = catalog.check_dt(dt)
         self.settings = catalog.make_settings(model, **settings)
         self.scene = scene
+        self._grippers = scene.grippers
         self.model = model
         self.family = entry.family
         self._backend = entry.backend(scene, entry, self.dt, self.settings)
@@ -298,10 +299,15 @@ class Simulator:
     def move_gripper(self, pin_number: int, position) -> None:
         """Move the gripper of ``scene.pins[pin_number]`` to ``position`` (3,), metres, world frame; it travels
         there linearly over the next step's substeps."""
-        grippers = self.scene.grippers
+        grippers = self._grippers
         if isinstance(pin_number, bool) or pin_number not in grippers:
             raise ValueError(f"pin_number must index a gripper pin, one of {grippers}, got {pin_number!r}")
-        pos = np.asarray(_validate.vec3("position", position, unit="metres"))
+        try:  # called once per step by environments: one conversion, no tuple round trip
+            pos = np.array(position, dtype=np.float64)
+        except (TypeError, ValueError):
+            pos = None
+        if pos is None or pos.shape != (3,) or not np.isfinite(pos).all():
+            raise ValueError(f"position must be 3 finite numbers in metres, got {position!r}")
         self._backend.move_gripper(int(pin_number), pos)
 
     def add_point_mass(self, index: int, mass: float) -> None:
