@@ -56,3 +56,13 @@ def test_readme_defaults_table_is_the_catalogues():
     for model, written in table.items():
         defaults = dataclasses.asdict(catalog.make_settings(model))
         assert written == defaults, f"README defaults of {model!r} differ from the code's {defaults}"
+
+
+@pytest.mark.parametrize("index", range(len(re.findall(r"```python\n", README))))
+def test_readme_python_examples_run(index, tmp_path, monkeypatch):
+    """Each ``python`` block of the README runs as written (in a scratch folder), after the ones before it."""
+    monkeypatch.chdir(tmp_path)
+    blocks = re.findall(r"```python\n(.*?)```", README, re.S)
+    namespace = {}
+    for block in blocks[: index + 1]:
+        exec(compile(block, "README.md", "exec"), namespace)  # noqa: S102 - the README's own examples
