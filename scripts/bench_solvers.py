@@ -14,11 +14,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import time
 
 import mujoco
-import numba
 import numpy as np
 
 import mjcable
@@ -27,38 +25,9 @@ from mjcable.mjcf import proxy
 from mjcable.solvers import kernels, query_kernels, state
 from mjcable.solvers.contacts import ObstacleContacts
 
+from bench_speed import minimal_loop  # the same minimal loop as the speed benchmark (scripts/ is on sys.path)
+
 GRAVITY_Z = -9.81
-
-
-@numba.njit(cache=True)
-def minimal_gauss_seidel(x, v, x0, w, rest, h, n_sub):
-    """The smallest useful XPBD/PBD substep for a chain (α = 0, 1 iteration): predict, one Gauss-Seidel sweep of
-    mass-weighted distance projections, velocity update. Scalar code, nothing else."""
-    n = x.shape[0]
-    for _ in range(n_sub):
-        for i in range(n):
-            x0[i, 0], x0[i, 1], x0[i, 2] = x[i, 0], x[i, 1], x[i, 2]
-            if w[i] > 0.0:
-                v[i, 2] += GRAVITY_Z * h
-                x[i, 0] += h * v[i, 0]
-                x[i, 1] += h * v[i, 1]
-                x[i, 2] += h * v[i, 2]
-        for i in range(n - 1):
-            dx, dy, dz = x[i, 0] - x[i + 1, 0], x[i, 1] - x[i + 1, 1], x[i, 2] - x[i + 1, 2]
-            length = math.sqrt(dx * dx + dy * dy + dz * dz)
-            wsum = w[i] + w[i + 1]
-            if wsum == 0.0:
-                continue
-            s = (rest - length) / (wsum * length)
-            x[i, 0] += w[i] * s * dx
-            x[i, 1] += w[i] * s * dy
-            x[i, 2] += w[i] * s * dz
-            x[i + 1, 0] -= w[i + 1] * s * dx
-            x[i + 1, 1] -= w[i + 1] * s * dy
-            x[i + 1, 2] -= w[i + 1] * s * dz
-        for i in range(n):
-            for c in range(3):
-                v[i, c] = (x[i, c] - x0[i, c]) / h
 
 
 def _best(fn, repeats: int) -> float:
@@ -106,9 +75,9 @@ def bench_substep(repeats: int, batch: int = 2000, dt: float = 0.002) -> dict:
         if order == "gauss-seidel":
             x, v, w = S.x.copy(), S.v.copy(), S.w.copy()
             x0 = x.copy()
-            rest = float(S.rest[0])
-            minimal_gauss_seidel(x, v, x0, w, rest, h, 1)
-            out["minimal"] = _best(lambda: minimal_gauss_seidel(x, v, x0, w, rest, h, batch), repeats) / batch
+            rest = S.rest.copy()
+            minimal_loop(x, v, x0, w, rest, h, GRAVITY_Z, 1)
+            out["minimal"] = _best(lambda: minimal_loop(x, v, x0, w, rest, h, GRAVITY_Z, batch), repeats) / batch
             out["kernel_call"] = _per_call(lambda: kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0), 2000,
                                            repeats)
         out[order] = _best(lambda: kernels.run_substeps_flat(*S, *C, batch, kernels.PHASE_ALL, 0), repeats) / batch

@@ -62,7 +62,7 @@ class ObstacleContacts:
 
     def touching(self, x: np.ndarray, reach: float) -> bool:
         """Whether the bounding box of particles ``x`` (n, 3), grown by ``reach`` metres, touches any obstacle's."""
-        return query_kernels.touches_obstacles(x, reach, self._box_lo, self._box_hi, self._plane_n, self._plane_p)
+        return kernels.touches_obstacles(x, reach, self._box_lo, self._box_hi, self._plane_n, self._plane_p)
 
     def query(self, x: np.ndarray, margin: float, out: kernels.Contacts) -> kernels.Contacts:
         """Contacts of the proxy capsules (posed from ``x`` (n + 1, 3) beforehand) closer than ``margin`` metres.

@@ -811,8 +811,10 @@ def step_margin(v, contact_margin, dt, fall):
 
 
 @_inline
-def _touches(x, reach, box_lo, box_hi, plane_n, plane_p):
-    """:func:`mjcable.solvers.query_kernels.touches_obstacles` (the same arithmetic) for the step driver."""
+def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
+    """Whether the bounding box of particles ``x`` (N, 3), grown by ``reach`` metres, touches an obstacle: a world
+    bounding box (``box_lo``, ``box_hi`` (B, 3)) or the solid side of a plane (unit normal ``plane_n``, point
+    ``plane_p`` (F, 3)). The step driver and :meth:`mjcable.solvers.contacts.ObstacleContacts.touching` share it."""
     lo0 = lo1 = lo2 = math.inf
     hi0 = hi1 = hi2 = -math.inf
     for p in range(x.shape[0]):
@@ -873,7 +875,7 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
     obstacles = box_lo.shape[0] + plane_n.shape[0] > 0
     released, stored = 0, 0
     for k in range(n_steps):
-        if k > 0 and (solo or (obstacles and _touches(
+        if k > 0 and (solo or (obstacles and touches_obstacles(
                 x, step_margin(v, lim[_L_MARGIN], lim[_L_DT], lim[_L_FALL]) + lim[_L_RADIUS], box_lo, box_hi,
                 plane_n, plane_p))):
             return k, True, released, False, stored

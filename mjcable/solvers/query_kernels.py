@@ -2,7 +2,8 @@
 
 These run once per step from Python (:mod:`mjcable.backends.particle`, :mod:`mjcable.solvers.contacts`), never
 from the substep driver, so they live apart from :mod:`mjcable.solvers.kernels` (numba caches per file; the
-driver and its callees stay together there).
+driver and its callees stay together there). The bounding-box test that skips the query (``touches_obstacles``)
+is called by the step driver too, so it lives in :mod:`mjcable.solvers.kernels`.
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -15,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["find_self_contacts", "touches_obstacles", "contacts_from_mujoco", "proxy_poses", "segment_closest"]
+__all__ = ["find_self_contacts", "contacts_from_mujoco", "proxy_poses", "segment_closest"]
 
 _jit = numba.njit(cache=True, error_model="numpy")
 _inline = numba.njit(cache=True, error_model="numpy", inline="always")
@@ -88,30 +89,6 @@ def find_self_contacts(x, reach, pair, sgeo):
             sgeo[count, 4] = d2 / dist
             count += 1
     return count
-
-
-@_jit
-def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
-    """Whether the bounding box of particles ``x`` (N, 3), grown by ``reach`` metres, touches an obstacle: a world
-    bounding box (``box_lo``, ``box_hi`` (B, 3)) or the solid side of a plane (unit normal ``plane_n``, point
-    ``plane_p`` (F, 3))."""
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for comp in range(3):
-        lo[comp] = x[:, comp].min() - reach
-        hi[comp] = x[:, comp].max() + reach
-    for k in range(box_lo.shape[0]):
-        if (lo[0] <= box_hi[k, 0] and hi[0] >= box_lo[k, 0] and lo[1] <= box_hi[k, 1] and hi[1] >= box_lo[k, 1]
-                and lo[2] <= box_hi[k, 2] and hi[2] >= box_lo[k, 2]):
-            return True
-    for k in range(plane_n.shape[0]):
-        depth = 0.0
-        for comp in range(3):
-            depth += plane_n[k, comp] * (0.5 * (lo[comp] + hi[comp]) - plane_p[k, comp])
-            depth -= abs(plane_n[k, comp]) * 0.5 * (hi[comp] - lo[comp])
-        if depth <= 0.0:
-            return True
-    return False
 
 
 @_jit
