@@ -216,3 +216,14 @@ def test_catalogue_entries_are_validated():
         dataclasses.replace(good, name="x", settings=dict)
     with pytest.raises(ValueError, match="unknown setting"):
         catalog.make_settings("springs", iterations=3)
+
+
+def test_settings_with_user_constraints_rebuild_the_same_simulator(hang):
+    floor = mjcable.solvers.UserConstraint(particles=(10,), function=lambda p: p[0, 2] - 0.8, inequality=True)
+    sim = mjcable.Simulator(hang, "pbd", constraints=[floor])
+    again = mjcable.Simulator(sim.scene, sim.model, dt=sim.dt, **dataclasses.asdict(sim.settings))
+    assert again.settings == sim.settings  # asdict turned the constraint into a mapping; the settings rebuild it
+    sim.step(0.2)
+    again.step(0.2)
+    np.testing.assert_array_equal(again.positions, sim.positions)
+    assert sim.positions[10, 2] > 0.8 - 1e-9  # the user's floor holds
