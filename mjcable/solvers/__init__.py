@@ -25,8 +25,11 @@ setting                   meaning                                               
 ========================  ======================================================  =============================
 
 Module map: :mod:`~mjcable.solvers.settings` (the settings dataclasses), :mod:`~mjcable.solvers.state` (arrays),
-:mod:`~mjcable.solvers.kernels` (the substep driver and every ``@njit`` projection it calls, citing paper and
-equation), :mod:`~mjcable.solvers.query_kernels` (contact queries and proxy poses, called from Python),
+:mod:`~mjcable.solvers.kernels` (the substep and step drivers; it re-exports the projections they call:
+:mod:`~mjcable.solvers.constraint_kernels`, the sweeps citing paper and equation,
+:mod:`~mjcable.solvers.direct_kernels`, the direct order, and :mod:`~mjcable.solvers.kernels_layout`, indices and
+named tuples; their numba cache is stamped with all kernel files, :mod:`~mjcable.solvers._kernel_cache`),
+:mod:`~mjcable.solvers.query_kernels` (contact queries and proxy poses, called from Python),
 :mod:`~mjcable.solvers.contacts` (``mj_collision`` queries), :mod:`~mjcable.solvers.jakobsen`,
 :mod:`~mjcable.solvers.pbd`, :mod:`~mjcable.solvers.xpbd` (each model's rules: how the physical cable becomes
 compliances and factors), :mod:`~mjcable.solvers.user_constraints` (PBD's user constraints).

@@ -1,9 +1,9 @@
 """Python-called kernels of the particle solvers: contact queries and the proxy's poses, ``@njit(cache=True)``.
 
 These run once per step from Python (:mod:`mjcable.backends.particle`, :mod:`mjcable.solvers.contacts`), never
-from the substep driver, so they live apart from :mod:`mjcable.solvers.kernels` (numba caches per file; the
-driver and its callees stay together there). The bounding-box test that skips the query (``touches_obstacles``)
-is called by the step driver too, so it lives in :mod:`mjcable.solvers.kernels`.
+from the substep driver, so they live apart from :mod:`mjcable.solvers.kernels`. Their numba cache is stamped
+with all kernel files (:mod:`mjcable.solvers._kernel_cache`). The bounding-box test that skips the query
+(``touches_obstacles``) is called by the step driver too, so it lives in :mod:`mjcable.solvers.kernels`.
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -13,13 +13,11 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-__all__ = ["find_self_contacts", "contacts_from_mujoco", "proxy_poses", "segment_closest"]
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 
-_jit = numba.njit(cache=True, error_model="numpy")
-_inline = numba.njit(cache=True, error_model="numpy", inline="always")
+__all__ = ["find_self_contacts", "contacts_from_mujoco", "proxy_poses", "segment_closest"]
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction
 _PARALLEL = 1e-12  # relative sin² below which two segments count as parallel

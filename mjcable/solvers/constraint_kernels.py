@@ -1,0 +1,276 @@
+"""Constraint projections of the particle solvers, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`):
+one small pure scalar function per constraint type (citing its paper and equation) and one sweep that applies it to
+all constraints of that type: stretch, curvature and distance bending, clamps, obstacle and self contacts.
+References and the shared XPBD formula: :mod:`mjcable.solvers.kernels`. Re-exported by that module.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.kernels_layout import (_F_INV_L0SQ, _I_BEND, _TINY_LENGTH, _TINY_SLIP, BEND_CURVATURE,
+                                            BEND_DISTANCE)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Per-constraint projections: pure scalar functions.
+
+
+@_inline
+def xpbd_multiplier(cval, wsum, alpha_tilde, lam, k):
+    """Δλ = k (−C − α̃ λ) / (Σ w |∇C|² + α̃) ([M16] Eq. 18; α̃ = 0 and k: PBD, [T20] Eq. 2.12, [M07])."""
+    denom = wsum + alpha_tilde
+    if denom == 0.0:
+        return 0.0
+    return k * (-cval - alpha_tilde * lam) / denom
+
+
+@_inline
+def stretch_step(dx, dy, dz, wsum, rest, alpha_tilde, lam, k):
+    """Distance constraint C = |d| − rest, d = xᵢ − xⱼ (thesis Eq. 2.9), ∇ᵢC = d/|d| = −∇ⱼC.
+
+    Returns (σ, Δλ) with σ = Δλ / |d|, so that Δxᵢ = wᵢ σ d and Δxⱼ = −wⱼ σ d ([M16] Eqs. 17–18): one square root
+    and one division. With α̃ = 0 and k = 1 it is Jakobsen's mass-weighted stick ([J01]; [T20] Eq. 2.8).
+    """
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    denom = wsum + alpha_tilde
+    if length < _TINY_LENGTH or denom == 0.0:
+        return 0.0, 0.0
+    sigma = k * (rest - length - alpha_tilde * lam) / (denom * length)
+    return sigma, sigma * length
+
+
+@_inline
+def stretch_step_sqrt(dx, dy, dz, wsum, rest, k):
+    """Jakobsen's stick with the square root replaced by its first-order Taylor expansion at the rest length
+    ([J01], "Cloth simulation": ``delta *= r²/(delta·delta + r²) − 0.5``), mass-weighted: (|d| − r)/|d| becomes
+    (|d|² − r²)/(|d|² + r²), no square root, one division. Returns (σ, Δλ) as :func:`stretch_step`, with
+    |d| ≈ (|d|² + r²)/2r for Δλ."""
+    if wsum == 0.0:
+        return 0.0, 0.0
+    d2 = dx * dx + dy * dy + dz * dz
+    r2 = rest * rest
+    sigma = -k * (d2 - r2) / ((d2 + r2) * wsum)
+    return sigma, sigma * 0.5 * (d2 + r2) / rest
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Sweeps: one call per iteration applies all constraints of one type. Corrections go to ``out`` (``x`` itself for
+# Gauss-Seidel, a delta buffer for Jacobi); a held particle (w = 0) collects ∇C Δλ in ``react`` instead.
+
+
+@_inline
+def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx):
+    """Stretch constraints c = 0..len(rest)−1 between particles c and c + ``gap`` (gap 1: the segments; gap 2: the
+    thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23)."""
+    for c in range(rest.shape[0]):
+        i = c
+        j = c + gap
+        dx = x[i, 0] - x[j, 0]
+        dy = x[i, 1] - x[j, 1]
+        dz = x[i, 2] - x[j, 2]
+        wi = w[i]
+        wj = w[j]
+        if sqrt_approx:
+            sigma, dlam = stretch_step_sqrt(dx, dy, dz, wi + wj, rest[c], k)
+        else:
+            sigma, dlam = stretch_step(dx, dy, dz, wi + wj, rest[c], alpha_tilde, lam[c], k)
+        lam[c] += dlam
+        if wi > 0.0:
+            out[i, 0] += wi * sigma * dx
+            out[i, 1] += wi * sigma * dy
+            out[i, 2] += wi * sigma * dz
+        else:
+            react[i, 0] += sigma * dx
+            react[i, 1] += sigma * dy
+            react[i, 2] += sigma * dz
+        if wj > 0.0:
+            out[j, 0] -= wj * sigma * dx
+            out[j, 1] -= wj * sigma * dy
+            out[j, 2] -= wj * sigma * dz
+        else:
+            react[j, 0] -= sigma * dx
+            react[j, 1] -= sigma * dy
+            react[j, 2] -= sigma * dz
+
+
+@_jit
+def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k):
+    """Curvature bending at every interior particle i = b + 1: the vector constraint
+    C = (x_{i−1} − 2xᵢ + x_{i+1}) / l₀², the discrete curvature of a rod that is straight at rest, with energy
+    ½ E·I |C|² l₀, i.e. α = 1 / (E·I·l₀). C is linear in x: its gradient is (1, −2, 1)/l₀² times the identity, so
+    the three components decouple and each is one [M16] Eq. 18 update."""
+    g2 = inv_l0sq * inv_l0sq
+    for b in range(lam.shape[0]):
+        i = b + 1
+        wa = w[i - 1]
+        wb = w[i]
+        wc = w[i + 1]
+        wsum = (wa + 4.0 * wb + wc) * g2
+        for comp in range(3):
+            cval = (x[i - 1, comp] - 2.0 * x[i, comp] + x[i + 1, comp]) * inv_l0sq
+            dlam = xpbd_multiplier(cval, wsum, alpha_tilde, lam[b, comp], k)
+            lam[b, comp] += dlam
+            g = inv_l0sq * dlam
+            if wa > 0.0:
+                out[i - 1, comp] += wa * g
+            else:
+                react[i - 1, comp] += g
+            if wb > 0.0:
+                out[i, comp] -= 2.0 * wb * g
+            else:
+                react[i, comp] -= 2.0 * g
+            if wc > 0.0:
+                out[i + 1, comp] += wc * g
+            else:
+                react[i + 1, comp] += g
+
+
+@_jit
+def clamp_sweep(x, out, w, react, clamp_pq, clamp_pin, pin_active, clamp_dir, scale, alpha_tilde, lam, k):
+    """Clamps: the tangent at pinned particle p is held along the clamp axis by the finite-difference clamped
+    boundary (w'(0) = 0 through a mirrored ghost particle): two scalar constraints C_m = scale · d_m · (x_q − x_p),
+    d_m ⟂ axis, scale = 2 / l₀², carrying half a Voronoi cell of bending energy (α = 2 / (E·I·l₀)); α = 0 holds
+    the tangent rigidly. A cantilever of n segments then bends as beam theory to O(1/n²), where fixing the
+    neighbour particle instead would clamp half a segment further out (2 % stiff at n = 100)."""
+    for kc in range(clamp_pq.shape[0]):
+        if not pin_active[clamp_pin[kc]]:
+            continue
+        p = clamp_pq[kc, 0]
+        q = clamp_pq[kc, 1]
+        wp = w[p]
+        wq = w[q]
+        wsum = (wp + wq) * scale * scale
+        for m in range(2):
+            dx = clamp_dir[kc, m, 0]
+            dy = clamp_dir[kc, m, 1]
+            dz = clamp_dir[kc, m, 2]
+            cval = scale * (dx * (x[q, 0] - x[p, 0]) + dy * (x[q, 1] - x[p, 1]) + dz * (x[q, 2] - x[p, 2]))
+            dlam = xpbd_multiplier(cval, wsum, alpha_tilde, lam[kc, m], k)
+            lam[kc, m] += dlam
+            g = scale * dlam
+            if wq > 0.0:
+                out[q, 0] += wq * g * dx
+                out[q, 1] += wq * g * dy
+                out[q, 2] += wq * g * dz
+            else:
+                react[q, 0] += g * dx
+                react[q, 1] += g * dy
+                react[q, 2] += g * dz
+            if wp > 0.0:
+                out[p, 0] -= wp * g * dx
+                out[p, 1] -= wp * g * dy
+                out[p, 2] -= wp * g * dz
+            else:
+                react[p, 0] -= g * dx
+                react[p, 1] -= g * dy
+                react[p, 2] -= g * dz
+
+
+@_inline
+def contact_sweep(x, x0, w, react, seg, geo, lam):
+    """Contacts of segments (i, i+1) with static obstacles at fraction s along them, each linearised once per step
+    as the half-space n·p ≥ offset for the axis point p = (1 − s) xᵢ + s x_{i+1} (offset = n·q + radius, q on the
+    obstacle's surface). Both particles move with weights (1 − s, s) as in Jakobsen's segment collision ([J01],
+    "c1, c2"), mass-weighted: ∇ᵢC = (1 − s) n, ∇ᵢ₊₁C = s n. Inequality: projected only while C < 0.
+
+    Friction, Coulomb with one μ, positional (the static friction of [M20]'s contact handling): the contact point's tangential slip since the substep
+    began is cancelled while the tangential multiplier stays within μ λₙ (static friction); beyond, the correction
+    is capped at μ λₙ, i.e. the kinetic friction force μ·N (both forces λ / h²).
+    """
+    for c in range(seg.shape[0]):
+        i = seg[c]
+        j = i + 1
+        s = geo[c, 0]
+        nx, ny, nz = geo[c, 1], geo[c, 2], geo[c, 3]
+        a, b = 1.0 - s, s
+        wi, wj = w[i], w[j]
+        wsum = a * a * wi + b * b * wj
+        if wsum == 0.0:
+            continue
+        px = a * x[i, 0] + b * x[j, 0]
+        py = a * x[i, 1] + b * x[j, 1]
+        pz = a * x[i, 2] + b * x[j, 2]
+        cval = nx * px + ny * py + nz * pz - geo[c, 4]
+        if cval < 0.0:
+            dlam = -cval / wsum
+            lam[c, 0] += dlam
+            for p, f, wp in ((i, a, wi), (j, b, wj)):
+                if wp > 0.0:
+                    x[p, 0] += wp * f * dlam * nx
+                    x[p, 1] += wp * f * dlam * ny
+                    x[p, 2] += wp * f * dlam * nz
+                else:
+                    react[p, 0] += f * dlam * nx
+                    react[p, 1] += f * dlam * ny
+                    react[p, 2] += f * dlam * nz
+        mu = geo[c, 5]
+        if mu > 0.0 and lam[c, 0] > 0.0:
+            sx = a * (x[i, 0] - x0[i, 0]) + b * (x[j, 0] - x0[j, 0])
+            sy = a * (x[i, 1] - x0[i, 1]) + b * (x[j, 1] - x0[j, 1])
+            sz = a * (x[i, 2] - x0[i, 2]) + b * (x[j, 2] - x0[j, 2])
+            sn = sx * nx + sy * ny + sz * nz
+            tx, ty, tz = sx - sn * nx, sy - sn * ny, sz - sn * nz
+            slip = math.sqrt(tx * tx + ty * ty + tz * tz)
+            budget = mu * lam[c, 0] - lam[c, 1]
+            if slip > _TINY_SLIP and budget > 0.0:
+                dlam_t = min(slip / wsum, budget)
+                lam[c, 1] += dlam_t
+                g = -dlam_t / slip
+                for p, f, wp in ((i, a, wi), (j, b, wj)):
+                    if wp > 0.0:
+                        x[p, 0] += wp * f * g * tx
+                        x[p, 1] += wp * f * g * ty
+                        x[p, 2] += wp * f * g * tz
+                    else:
+                        react[p, 0] += f * g * tx
+                        react[p, 1] += f * g * ty
+                        react[p, 2] += f * g * tz
+
+
+@_jit
+def self_contact_sweep(x, w, react, pair, sgeo, gap, lam):
+    """Self contacts of non-adjacent segments (i, i+1) and (j, j+1) at fractions s, t, linearised once per step
+    with the unit normal n from segment j to segment i: C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius. Frictionless;
+    the four particles move with Jakobsen's segment weights ([J01]; the pairwise scheme of [T20] §4.2)."""
+    for c in range(pair.shape[0]):
+        i = pair[c, 0]
+        j = pair[c, 1]
+        s, t = sgeo[c, 0], sgeo[c, 1]
+        nx, ny, nz = sgeo[c, 2], sgeo[c, 3], sgeo[c, 4]
+        a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
+        wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
+        if wsum == 0.0:
+            continue
+        cval = -gap
+        cval += nx * (a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0])
+        cval += ny * (a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1])
+        cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
+        if cval >= 0.0:
+            continue
+        dlam = -cval / wsum
+        lam[c] += dlam
+        for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
+            wp = w[p]
+            if wp > 0.0:
+                x[p, 0] += wp * f * dlam * nx
+                x[p, 1] += wp * f * dlam * ny
+                x[p, 2] += wp * f * dlam * nz
+            else:
+                react[p, 0] += f * dlam * nx
+                react[p, 1] += f * dlam * ny
+                react[p, 2] += f * dlam * nz
+
+@_jit
+def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c):
+    """Bending and clamp sweeps, corrections into ``out``."""
+    x, w, react, fp = S.x, S.w, S.react, S.fp
+    bending = S.ip[_I_BEND]
+    if bending == BEND_CURVATURE:
+        curvature_sweep(x, out, w, react, fp[_F_INV_L0SQ], at_b, S.lam_b, k_b)
+    elif bending == BEND_DISTANCE:
+        stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False)
+    if S.clamp_pq.shape[0]:
+        clamp_sweep(x, out, w, react, S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir, 2.0 * fp[_F_INV_L0SQ],
+                    at_c, S.lam_c, k_c)

@@ -1,0 +1,273 @@
+"""The direct order of the particle solvers, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`): all chain
+constraints at once as one banded linear system (Deul et al. 2018, [D18] in :mod:`mjcable.solvers.kernels`), solved
+by a banded LDLᵀ, with the safeguard that re-linearises a failed solve. Re-exported by :mod:`mjcable.solvers.kernels`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.constraint_kernels import _bend_clamp_sweeps, stretch_sweep
+from mjcable.solvers.kernels_layout import (_F_INV_L0SQ, _I_BEND, _I_BW, _I_DIRECT_ALL, _I_SQRT, _TINY_LENGTH,
+                                            BEND_DISTANCE, BEND_NONE, ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH)
+
+# Relative compliance added to every row of the direct solve: it keeps hard, redundant rows (e.g. inextensible
+# stretch with hard curvature bending: more rows than degrees of freedom) solvable and is far below any physical one.
+_DIRECT_REGULARIZATION = 1e-10
+# The direct solve's safeguard against a failed linearisation (see direct_solve). A solve is accepted once the
+# largest relative residual ρ = |C + α̃ λ| / rest of the distance rows has shrunk by _DIRECT_CONTRACTION (a Newton
+# step within its region of convergence shrinks it far more: from about 1e-4 to 3e-9 per substep in the hanging
+# cable), or is at most _DIRECT_RESIDUAL_FLOOR: a relative stretch that a solve moving particles across their
+# segments leaves in any case (a stiff rod's bending correction of the sag g h² leaves (g h²)² / 2 l₀² ≈ 8e-5 at
+# h = 5 ms) and that is harmless, far below a failed linearisation (0.65 in a yank). Else the rows are
+# re-linearised and solved again, at most _DIRECT_MAX_SOLVES solves per iteration in all.
+_DIRECT_CONTRACTION = 0.5
+_DIRECT_RESIDUAL_FLOOR = 1e-4
+_DIRECT_MAX_SOLVES = 8
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The direct order: all chain constraints at once.
+
+
+@_jit
+def banded_ldlt_solve(band, rhs, bw):
+    """Solve A y = rhs in place for a symmetric positive definite A in lower band storage band[i, i − j] = A[i, j]
+    (half-bandwidth ``bw``), by LDLᵀ without pivoting, O(rows · bw²); ``band`` is overwritten by the factors.
+    For bw = 1 (a chain of stretch constraints) this is the Thomas algorithm."""
+    nrow = rhs.shape[0]
+    for j in range(nrow):  # band[j, 0] ← d_j, band[i, i − j] ← L_ij
+        d = band[j, 0]
+        for kk in range(max(0, j - bw), j):
+            ljk = band[j, j - kk]
+            d -= ljk * ljk * band[kk, 0]
+        band[j, 0] = d
+        for i in range(j + 1, min(nrow, j + bw + 1)):
+            acc = band[i, i - j]
+            for kk in range(max(0, i - bw), j):
+                acc -= band[i, i - kk] * band[j, j - kk] * band[kk, 0]
+            band[i, i - j] = acc / d
+    for i in range(nrow):  # L z = rhs
+        acc = rhs[i]
+        for kk in range(max(0, i - bw), i):
+            acc -= band[i, i - kk] * rhs[kk]
+        rhs[i] = acc
+    for i in range(nrow):  # D
+        rhs[i] /= band[i, 0]
+    for i in range(nrow - 1, -1, -1):  # Lᵀ y = z
+        acc = rhs[i]
+        for kk in range(i + 1, min(nrow, i + bw + 1)):
+            acc -= band[kk, kk - i] * rhs[kk]
+        rhs[i] = acc
+
+
+@_inline
+def _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t):
+    """Linearise every row at the current x: ∇C into ``grad``, −C − α̃ λ into ``rhs`` and J W Jᵀ + α̃ into
+    ``band`` ([M16] Eq. 18 for all rows at once). Returns ρ = max |C + α̃ λ| / rest over the distance rows."""
+    x, w = S.x, S.w
+    band, rhs, grad, row_p = S.band, S.rhs, S.grad, S.row_p
+    row_kind, row_idx = S.row_kind, S.row_idx
+    lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
+    rest, rest_d = S.rest, S.rest_d
+    clamp_dir, clamp_pin, pin_active = S.clamp_dir, S.clamp_pin, S.pin_active
+    inv_l0sq = S.fp[_F_INV_L0SQ]
+    nrow = rhs.shape[0]
+    band[:] = 0.0
+    grad[:] = 0.0
+    rho = 0.0
+    for r in range(nrow):  # C, ∇C and α̃ of every row
+        kind = row_kind[r]
+        idx = row_idx[r]
+        cval = 0.0
+        lam = 0.0
+        at = alpha_b_t
+        if kind == ROW_STRETCH or kind == ROW_DISTANCE:
+            i, j = row_p[r, 0], row_p[r, 1]
+            dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if kind == ROW_STRETCH:
+                at = alpha_s_t
+                lam = lam_s[idx]
+                rl = rest[idx]
+            else:
+                lam = lam_d[idx]
+                rl = rest_d[idx]
+            cval = length - rl
+            if length > _TINY_LENGTH:
+                grad[r, 0, 0], grad[r, 0, 1], grad[r, 0, 2] = dx / length, dy / length, dz / length
+                grad[r, 1, 0], grad[r, 1, 1], grad[r, 1, 2] = -dx / length, -dy / length, -dz / length
+            else:
+                cval = 0.0
+            rho = max(rho, abs(cval + at * lam) / rl)
+        elif kind == ROW_CURVATURE:
+            b, comp = idx // 3, idx % 3
+            i = b + 1
+            lam = lam_b[b, comp]
+            cval = (x[i - 1, comp] - 2.0 * x[i, comp] + x[i + 1, comp]) * inv_l0sq
+            grad[r, 0, comp], grad[r, 1, comp], grad[r, 2, comp] = inv_l0sq, -2.0 * inv_l0sq, inv_l0sq
+        else:  # ROW_CLAMP
+            at = alpha_c_t
+            kc, m = idx // 2, idx % 2
+            if pin_active[clamp_pin[kc]]:
+                p, q = row_p[r, 0], row_p[r, 1]
+                lam = lam_c[kc, m]
+                scale = 2.0 * inv_l0sq
+                for comp in range(3):
+                    d = scale * clamp_dir[kc, m, comp]
+                    grad[r, 0, comp] = -d
+                    grad[r, 1, comp] = d
+                    cval += d * (x[q, comp] - x[p, comp])
+            else:
+                at = 0.0
+        band[r, 0] = at
+        rhs[r] = -cval - at * lam
+    prow, pslot = S.prow, S.pslot
+    for p in range(x.shape[0]):  # J W Jᵀ, particle by particle
+        wp = w[p]
+        if wp == 0.0:
+            continue
+        for ka in range(prow.shape[1]):
+            ra = prow[p, ka]
+            if ra < 0:
+                break
+            sa = pslot[p, ka]
+            for kb in range(ka + 1):
+                rb = prow[p, kb]
+                sb = pslot[p, kb]
+                dot = grad[ra, sa, 0] * grad[rb, sb, 0] + grad[ra, sa, 1] * grad[rb, sb, 1] \
+                    + grad[ra, sa, 2] * grad[rb, sb, 2]
+                if ra >= rb:
+                    band[ra, ra - rb] += wp * dot
+                else:
+                    band[rb, rb - ra] += wp * dot
+    for r in range(nrow):
+        if band[r, 0] == 0.0:  # a hard row on held particles only (or a released clamp): Δλ = 0
+            band[r, 0] = 1.0
+            rhs[r] = 0.0
+        else:
+            band[r, 0] *= 1.0 + _DIRECT_REGULARIZATION
+    return rho
+
+
+@_inline
+def _direct_apply(S, k_s, k_b, k_c):
+    """λ += k Δλ and x += W Jᵀ k Δλ ([M16] Eq. 17) for the Δλ that :func:`banded_ldlt_solve` left in ``rhs``."""
+    x, w, react, grad, row_p, rhs = S.x, S.w, S.react, S.grad, S.row_p, S.rhs
+    row_kind, row_idx = S.row_kind, S.row_idx
+    lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
+    for r in range(rhs.shape[0]):
+        kind = row_kind[r]
+        idx = row_idx[r]
+        if kind == ROW_STRETCH:
+            dlam = k_s * rhs[r]
+            lam_s[idx] += dlam
+        elif kind == ROW_DISTANCE:
+            dlam = k_b * rhs[r]
+            lam_d[idx] += dlam
+        elif kind == ROW_CURVATURE:
+            dlam = k_b * rhs[r]
+            lam_b[idx // 3, idx % 3] += dlam
+        else:
+            dlam = k_c * rhs[r]
+            lam_c[idx // 2, idx % 2] += dlam
+        if dlam == 0.0:
+            continue
+        for a in range(3):
+            p = row_p[r, a]
+            if p < 0:
+                continue
+            wp = w[p]
+            if wp > 0.0:
+                for comp in range(3):
+                    x[p, comp] += wp * grad[r, a, comp] * dlam
+            else:
+                for comp in range(3):
+                    react[p, comp] += grad[r, a, comp] * dlam
+
+
+@_inline
+def _distance_rows_within(x, rest, gap, alpha_tilde, lam, tol):
+    """Whether every distance constraint C = |xᵢ − xᵢ₊gap| − rest (thesis Eq. 2.9) has |C + α̃ λ| ≤ tol · rest, the
+    XPBD residual ([M16] Eq. 18's numerator) that a converged solve drives to zero. Without a square root or a
+    division: with the target length t = rest − α̃ λ and margin e = tol · rest, |d| − t ∈ [−e, e] iff
+    |d|² ≤ (t + e)² and |d|² ≥ (t − e)² (the latter always true when t ≤ e)."""
+    for c in range(rest.shape[0]):
+        dx = x[c, 0] - x[c + gap, 0]
+        dy = x[c, 1] - x[c + gap, 1]
+        dz = x[c, 2] - x[c + gap, 2]
+        d2 = dx * dx + dy * dy + dz * dz
+        target = rest[c] - alpha_tilde * lam[c]
+        margin = tol * rest[c]
+        high = target + margin
+        low = target - margin
+        if d2 > high * high or d2 < low * abs(low):
+            return False
+    return True
+
+
+@_inline
+def _direct_within(S, alpha_s_t, alpha_b_t, tol):
+    """Whether the direct solve's distance rows (stretch, and distance bending if solved) have relative residuals
+    |C + α̃ λ| / rest ≤ tol."""
+    if not _distance_rows_within(S.x, S.rest, 1, alpha_s_t, S.lam_s, tol):
+        return False
+    if S.ip[_I_DIRECT_ALL] and S.ip[_I_BEND] == BEND_DISTANCE:
+        return _distance_rows_within(S.x, S.rest_d, 2, alpha_b_t, S.lam_d, tol)
+    return True
+
+
+@_jit
+def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
+    """One direct iteration over all chain constraints (stretch, bending, clamps) at once: the linearised XPBD
+    system (J W Jᵀ + α̃) Δλ = −C − α̃ λ ([M16]'s linearised system with its g term dropped, as there) is banded
+    for a chain and is solved exactly by :func:`banded_ldlt_solve` ([D18]); Δx = W Jᵀ Δλ. With stretch rows only
+    it is tridiagonal. A single iteration then gives XPBD's stated stiffness; PBD and Jakobsen scale Δλ by their k.
+
+    A safeguard for large rotations within a substep. The curvature and clamp rows are linear in x, so the solve
+    meets them exactly; the distance rows (stretch, distance bending; C = |d| − rest) are not: a segment whose end
+    moves across it by Δd⊥ stretches by |Δd⊥|² / 2|d|, which the linearisation misses. Moving a light particle
+    across a straight neighbour costs nothing to first order, so when a gripper yanks the end of a straight cable
+    (20 m/s at dt = 2 ms, 4 substeps) the solve flings the next particle sideways and leaves the cable more
+    stretched than before (largest strain 45 % → 65 %); the positions carry this as velocity, and the cable blows
+    up. So the relative residual of the distance rows, ρ = max |C + α̃ λ| / rest, before the solve (ρ₀, from the
+    linearisation) is compared with its value after (one pass over the distance rows, without a square root):
+
+    * ρ ≤ max(ρ_floor, (1 − k (1 − κ)) ρ₀), κ = ``_DIRECT_CONTRACTION``, ρ_floor = ``_DIRECT_RESIDUAL_FLOOR``:
+      the solve is accepted. It is a Newton step on C(x) + α̃ λ = 0 along Δx = W Jᵀ Δλ (each XPBD iteration is
+      such a step, with the geometric stiffness and [M16]'s g dropped), which within its region of convergence
+      shrinks ρ to second order; with k < 1 only k of the residual is removed. This is the normal case: one solve
+      per iteration with the same result as without the safeguard, plus the check (0.4 µs of a 50-segment
+      substep's 3 µs).
+    * otherwise the linearisation has failed: re-linearise at the new x and solve again (another Newton step, i.e.
+      another direct XPBD iteration) until accepted, at most ``_DIRECT_MAX_SOLVES`` solves in all. Converging the
+      same implicit step further leaves XPBD's stiffness as it is.
+    * if ρ is still above ρ₀ after the last solve (Newton not converging, e.g. when a pin moves more than a
+      segment within a substep), one nonlinear Gauss-Seidel sweep of the same rows follows ([M16] Eq. 18 per
+      constraint, as ``order="gauss-seidel"``): each projection solves its own constraint exactly, without overshoot.
+    """
+    rho0 = _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t)
+    banded_ldlt_solve(S.band, S.rhs, S.ip[_I_BW])
+    _direct_apply(S, k_s, k_b, k_c)
+    tol = max(_DIRECT_RESIDUAL_FLOOR, (1.0 - k_s * (1.0 - _DIRECT_CONTRACTION)) * rho0)
+    if not _direct_within(S, alpha_s_t, alpha_b_t, tol):
+        _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0, tol)
+
+
+@_jit
+def _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0, tol):
+    """The safeguard of :func:`direct_solve` after a rejected solve: further Newton steps (re-linearised solves)
+    until every relative residual is within ``tol``, at most ``_DIRECT_MAX_SOLVES`` solves in all; then, if some
+    is still above ρ₀, one Gauss-Seidel sweep of the same rows ([M16] Eq. 18 per constraint)."""
+    for _ in range(_DIRECT_MAX_SOLVES - 1):
+        _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t)
+        banded_ldlt_solve(S.band, S.rhs, S.ip[_I_BW])
+        _direct_apply(S, k_s, k_b, k_c)
+        if _direct_within(S, alpha_s_t, alpha_b_t, tol):
+            return
+    if not _direct_within(S, alpha_s_t, alpha_b_t, rho0):  # Newton diverging: project the rows one by one
+        x = S.x
+        stretch_sweep(x, x, S.w, S.react, S.rest, 1, alpha_s_t, S.lam_s, k_s, S.ip[_I_SQRT] != 0)
+        if S.ip[_I_DIRECT_ALL] and (S.ip[_I_BEND] != BEND_NONE or S.clamp_pq.shape[0] > 0):
+            _bend_clamp_sweeps(S, x, alpha_b_t, alpha_c_t, k_b, k_c)

@@ -1,0 +1,51 @@
+"""The particle solvers' data layout, shared by all kernel files: indices into the parameter arrays, the codes of
+orders, bending models, direct-solve rows and substep phases, the solver state (:class:`Chain`) and the contacts
+(:class:`Contacts`) named tuples, and the tolerances that several kernels use.
+
+Numba freezes these module constants into the compiled kernels that read them, so this file is a kernel file for the
+cache (its name matches ``*kernels*``: a change here recompiles every kernel, see
+:mod:`mjcable.solvers._kernel_cache`). Re-exported by :mod:`mjcable.solvers.kernels`.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+# Indices into Chain.fp (floats) and Chain.ip (integers): named, so that driver and kernels agree.
+FP = dict(h=0, damp=1, gx=2, gy=3, gz=4, alpha_s=5, alpha_b=6, alpha_c=7, k_s=8, k_b=9, k_c=10, inv_l0sq=11,
+          omega=12, radius=13)
+IP = dict(iterations=0, order=1, bending=2, sqrt=3, bandwidth=4, direct_all=5)
+# Indices into run_steps_flat's ``lim`` (floats): step (s), divergence limits (m, m/s), the contact query's terms.
+LIM = dict(dt=0, max_distance=1, max_speed=2, contact_margin=3, fall=4, radius=5)
+N_FP = len(FP)
+N_IP = len(IP)
+_F_H, _F_DAMP, _F_GX, _F_GY, _F_GZ = 0, 1, 2, 3, 4
+_F_ALPHA_S, _F_ALPHA_B, _F_ALPHA_C, _F_K_S, _F_K_B, _F_K_C = 5, 6, 7, 8, 9, 10
+_F_INV_L0SQ, _F_OMEGA, _F_RADIUS = 11, 12, 13
+_I_ITER, _I_ORDER, _I_BEND, _I_SQRT, _I_BW, _I_DIRECT_ALL = 0, 1, 2, 3, 4, 5
+_L_DT, _L_DISTANCE, _L_SPEED, _L_MARGIN, _L_FALL, _L_RADIUS = 0, 1, 2, 3, 4, 5
+
+ORDER_GAUSS_SEIDEL, ORDER_JACOBI, ORDER_DIRECT = 0, 1, 2
+BEND_NONE, BEND_CURVATURE, BEND_DISTANCE = 0, 1, 2
+ROW_STRETCH, ROW_CURVATURE, ROW_DISTANCE, ROW_CLAMP = 0, 1, 2, 3
+PHASE_ALL, PHASE_BEGIN, PHASE_ITERATE, PHASE_END = 0, 1, 2, 3
+
+_TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
+_TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
+
+# The solver state, owned by the driver (mjcable.solvers.state) and passed whole to the driver kernels.
+Chain = namedtuple("Chain", [
+    "x", "v", "x0", "w", "mass", "react", "dx", "count",  # particles (N, 3) / (N,)
+    "rest", "lam_s",  # stretch constraint i joins particles i, i+1: rest length (n,), multiplier (n,)
+    "rest_d", "lam_d",  # distance bending b joins b, b+2: rest 2 l₀ (n-1,), multiplier (n-1,)
+    "lam_b",  # curvature bending at particle b+1: multipliers (n-1, 3)
+    "clamp_pq", "clamp_pin", "clamp_dir", "lam_c",  # clamps (K, 2) [pin particle, neighbour], (K,), (K, 2, 3), (K, 2)
+    "pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force",  # pins (P,), (P, 3), ..., (P, 3)
+    "row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs",  # direct order: the banded system
+    "fp", "ip",  # parameters (N_FP,), (N_IP,)
+])
+# Contacts found once per step: obstacle contacts and self contacts, re-projected in every substep and iteration.
+Contacts = namedtuple("Contacts", [
+    "seg", "geo", "lam",  # obstacle contacts: segment (C,), [s, nx, ny, nz, offset, mu] (C, 6), [λn, λt] (C, 2)
+    "pair", "sgeo", "slam",  # self contacts: segments (S, 2), [s, t, nx, ny, nz] (S, 5), λ (S,)
+])
