@@ -176,10 +176,7 @@ class NativeBackend:
         """(6,) [torque about the pinned particle, force] that the holder (world or gripper) transmits to the
         body holding pin ``k``'s particle (``cfrc_int``), plus, for a clamp, to the neighbour particle's body when
         that one is welded to the holder too (no joints of its own, as in ``springs``)."""
-        m, d = self.mj_model, self.mj_data
-        mujoco.mj_comPos(m, d)
-        mujoco.mj_comVel(m, d)
-        mujoco.mj_rnePostConstraint(m, d)
+        m, d = self.mj_model, self.mj_data  # cfrc_int is current: _pin_wrenches ran mj_rnePostConstraint
         i = self.scene.pin_particle(k)
         bodies = [int(self._site_body[i])]
         if self.scene.pins[k].clamp:
@@ -204,6 +201,11 @@ class NativeBackend:
         scene = self.scene
         out = np.zeros((len(scene.pins), 6))
         x = self.mj_data.site_xpos[self._sites]
+        if np.any(self._pin_eq[:, 0] < 0):  # pins the kinematic tree holds: their parents' forces, once for all
+            m, d = self.mj_model, self.mj_data
+            mujoco.mj_comPos(m, d)
+            mujoco.mj_comVel(m, d)
+            mujoco.mj_rnePostConstraint(m, d)
         for k in range(len(scene.pins)):
             eq, eq_clamp = (int(e) for e in self._pin_eq[k])
             if eq < 0:
