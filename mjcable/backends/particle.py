@@ -123,7 +123,7 @@ class ParticleBackend:
             np.copyto(a, self._start[name])
         mujoco.mj_resetData(self.mj_model, self.mj_data)
         self._posed = False
-        self.contacts = empty_contacts()
+        self.contacts = empty_contacts(shapes=None if self._obstacles is None else self._obstacles.shapes)
         self.released = set()
         self.last_contact_count = 0
         self.last_self_contact_count = 0
@@ -231,7 +231,7 @@ class ParticleBackend:
                 self._self_geo = np.zeros((cap, 5))
                 count = query_kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
             contacts = contacts._replace(pair=self._self_pair[:count], sgeo=self._self_geo[:count],
-                                         slam=np.zeros(count))
+                                         slam=np.zeros((count, 2)))
             self.last_self_contact_count = count
         self.contacts = contacts
 

@@ -1,6 +1,7 @@
 """Constraint projections of the particle solvers, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`):
 one small pure scalar function per constraint type (citing its paper and equation) and one sweep that applies it to
-all constraints of that type: stretch, curvature and distance bending, clamps, obstacle and self contacts.
+all constraints of that type: stretch, curvature and distance bending, clamps (contacts:
+:mod:`mjcable.solvers.contact_kernels`).
 References and the shared XPBD formula: :mod:`mjcable.solvers.kernels`. Re-exported by that module.
 """
 
@@ -9,8 +10,7 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import (_F_INV_L0SQ, _I_BEND, _TINY_LENGTH, _TINY_SLIP, BEND_CURVATURE,
-                                            BEND_DISTANCE)
+from mjcable.solvers.kernels_layout import _F_INV_L0SQ, _I_BEND, _TINY_LENGTH, BEND_CURVATURE, BEND_DISTANCE
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -167,100 +167,6 @@ def clamp_sweep(x, out, w, react, clamp_pq, clamp_pin, pin_active, clamp_dir, sc
                 react[p, 1] -= g * dy
                 react[p, 2] -= g * dz
 
-
-@_inline
-def contact_sweep(x, x0, w, react, seg, geo, lam):
-    """Contacts of segments (i, i+1) with static obstacles at fraction s along them, each linearised once per step
-    as the half-space n·p ≥ offset for the axis point p = (1 − s) xᵢ + s x_{i+1} (offset = n·q + radius, q on the
-    obstacle's surface). Both particles move with weights (1 − s, s) as in Jakobsen's segment collision ([J01],
-    "c1, c2"), mass-weighted: ∇ᵢC = (1 − s) n, ∇ᵢ₊₁C = s n. Inequality: projected only while C < 0.
-
-    Friction, Coulomb with one μ, positional (the static friction of [M20]'s contact handling): the contact point's tangential slip since the substep
-    began is cancelled while the tangential multiplier stays within μ λₙ (static friction); beyond, the correction
-    is capped at μ λₙ, i.e. the kinetic friction force μ·N (both forces λ / h²).
-    """
-    for c in range(seg.shape[0]):
-        i = seg[c]
-        j = i + 1
-        s = geo[c, 0]
-        nx, ny, nz = geo[c, 1], geo[c, 2], geo[c, 3]
-        a, b = 1.0 - s, s
-        wi, wj = w[i], w[j]
-        wsum = a * a * wi + b * b * wj
-        if wsum == 0.0:
-            continue
-        px = a * x[i, 0] + b * x[j, 0]
-        py = a * x[i, 1] + b * x[j, 1]
-        pz = a * x[i, 2] + b * x[j, 2]
-        cval = nx * px + ny * py + nz * pz - geo[c, 4]
-        if cval < 0.0:
-            dlam = -cval / wsum
-            lam[c, 0] += dlam
-            for p, f, wp in ((i, a, wi), (j, b, wj)):
-                if wp > 0.0:
-                    x[p, 0] += wp * f * dlam * nx
-                    x[p, 1] += wp * f * dlam * ny
-                    x[p, 2] += wp * f * dlam * nz
-                else:
-                    react[p, 0] += f * dlam * nx
-                    react[p, 1] += f * dlam * ny
-                    react[p, 2] += f * dlam * nz
-        mu = geo[c, 5]
-        if mu > 0.0 and lam[c, 0] > 0.0:
-            sx = a * (x[i, 0] - x0[i, 0]) + b * (x[j, 0] - x0[j, 0])
-            sy = a * (x[i, 1] - x0[i, 1]) + b * (x[j, 1] - x0[j, 1])
-            sz = a * (x[i, 2] - x0[i, 2]) + b * (x[j, 2] - x0[j, 2])
-            sn = sx * nx + sy * ny + sz * nz
-            tx, ty, tz = sx - sn * nx, sy - sn * ny, sz - sn * nz
-            slip = math.sqrt(tx * tx + ty * ty + tz * tz)
-            budget = mu * lam[c, 0] - lam[c, 1]
-            if slip > _TINY_SLIP and budget > 0.0:
-                dlam_t = min(slip / wsum, budget)
-                lam[c, 1] += dlam_t
-                g = -dlam_t / slip
-                for p, f, wp in ((i, a, wi), (j, b, wj)):
-                    if wp > 0.0:
-                        x[p, 0] += wp * f * g * tx
-                        x[p, 1] += wp * f * g * ty
-                        x[p, 2] += wp * f * g * tz
-                    else:
-                        react[p, 0] += f * g * tx
-                        react[p, 1] += f * g * ty
-                        react[p, 2] += f * g * tz
-
-
-@_jit
-def self_contact_sweep(x, w, react, pair, sgeo, gap, lam):
-    """Self contacts of non-adjacent segments (i, i+1) and (j, j+1) at fractions s, t, linearised once per step
-    with the unit normal n from segment j to segment i: C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius. Frictionless;
-    the four particles move with Jakobsen's segment weights ([J01]; the pairwise scheme of [T20] §4.2)."""
-    for c in range(pair.shape[0]):
-        i = pair[c, 0]
-        j = pair[c, 1]
-        s, t = sgeo[c, 0], sgeo[c, 1]
-        nx, ny, nz = sgeo[c, 2], sgeo[c, 3], sgeo[c, 4]
-        a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
-        wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
-        if wsum == 0.0:
-            continue
-        cval = -gap
-        cval += nx * (a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0])
-        cval += ny * (a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1])
-        cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
-        if cval >= 0.0:
-            continue
-        dlam = -cval / wsum
-        lam[c] += dlam
-        for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
-            wp = w[p]
-            if wp > 0.0:
-                x[p, 0] += wp * f * dlam * nx
-                x[p, 1] += wp * f * dlam * ny
-                x[p, 2] += wp * f * dlam * nz
-            else:
-                react[p, 0] += f * dlam * nx
-                react[p, 1] += f * dlam * ny
-                react[p, 2] += f * dlam * nz
 
 @_jit
 def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c):

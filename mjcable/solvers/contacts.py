@@ -1,9 +1,10 @@
 """Contacts of the particle cable with the MuJoCo scene, through MuJoCo's own collision pipeline.
 
 Once per step the proxy capsules (one per segment, posed from the particles) go through ``mj_collision`` with a
-margin that covers the distance the cable can travel in one step; each contact becomes a half-space constraint on
-the segment's axis point at fraction s, n·((1 − s) xᵢ + s x_{i+1}) >= n·q + radius, re-projected in every substep
-and iteration (:func:`mjcable.solvers.kernels.contact_sweep`). While the cable's bounding box touches no
+margin that covers the distance the cable can travel in one step; each contact becomes a constraint on the
+segment's axis point at fraction s, measured against the obstacle's shape (type, size and pose, one row of
+``Contacts.shapes`` per obstacle) in every substep and iteration, with Coulomb friction against anchors that
+persist across steps (:mod:`mjcable.solvers.contact_kernels`). While the cable's bounding box touches no
 obstacle's, the query is skipped.
 
 MuJoCo's contact (read in :func:`mjcable.solvers.query_kernels.contacts_from_mujoco`): ``dist`` (negative in
@@ -39,6 +40,15 @@ class ObstacleContacts:
                                         for k in range(len(scene.obstacles))], dtype=np.int64)
         self.segment_of_geom = np.full(mj_model.ngeom, -1, dtype=np.int64)
         self.segment_of_geom[segment_geoms] = np.arange(len(segment_geoms))
+        self.shape_of_geom = np.full(mj_model.ngeom, -1, dtype=np.int64)
+        self.shape_of_geom[self.obstacle_geoms] = np.arange(len(self.obstacle_geoms))
+        #: (B, kernels.N_SH): each obstacle's MuJoCo type, size, world position and rotation (static)
+        self.shapes = np.zeros((len(self.obstacle_geoms), kernels.N_SH))
+        g = self.obstacle_geoms
+        self.shapes[:, kernels.SH_TYPE] = mj_model.geom_type[g]
+        self.shapes[:, kernels.SH_SIZE:kernels.SH_SIZE + 3] = mj_model.geom_size[g]
+        self.shapes[:, kernels.SH_POS:kernels.SH_POS + 3] = mj_data.geom_xpos[g]
+        self.shapes[:, kernels.SH_ROT:kernels.SH_ROT + 9] = mj_data.geom_xmat[g]
         self._margin = None
         # Static obstacles: world bounding boxes, planes as half-spaces (normal, point).
         planes = mj_model.geom_type[self.obstacle_geoms] == mujoco.mjtGeom.mjGEOM_PLANE
@@ -51,8 +61,8 @@ class ObstacleContacts:
         half = np.einsum("kij,kj->ki", np.abs(rot), aabb[:, 3:])
         self._box_lo, self._box_hi = np.ascontiguousarray(center - half), np.ascontiguousarray(center + half)
         self._seg = np.zeros(0, dtype=np.int64)
-        self._geo = np.zeros((0, 6))
-        self._lam = np.zeros((0, 2))
+        self._geo = np.zeros((0, 7))
+        self._lam = np.zeros(0)
 
     @property
     def bounds(self) -> tuple:
@@ -69,7 +79,7 @@ class ObstacleContacts:
 
         Returns:
           ``out`` with its obstacle-contact arrays replaced by views of this query's buffers: segment (C,),
-          [s, n, offset, μ] (C, 6), multipliers (C, 2).
+          [s, n, offset, μ, shape row] (C, 7), multipliers (C,), and the obstacles' shapes.
         """
         m, d = self.mj_model, self.mj_data
         if margin != self._margin:
@@ -79,11 +89,12 @@ class ObstacleContacts:
         ncon = d.ncon
         if ncon > len(self._seg):
             self._seg = np.zeros(2 * ncon, dtype=np.int64)
-            self._geo = np.zeros((2 * ncon, 6))
-            self._lam = np.zeros((2 * ncon, 2))
+            self._geo = np.zeros((2 * ncon, 7))
+            self._lam = np.zeros(2 * ncon)
         count = 0
         if ncon:
             con = d.contact
             count = query_kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
-                                                 m.geom_friction, x, self.radius, self._seg, self._geo)
-        return out._replace(seg=self._seg[:count], geo=self._geo[:count], lam=self._lam[:count])
+                                                       self.shape_of_geom, m.geom_friction, x, self.radius, self._seg,
+                                                       self._geo)
+        return out._replace(seg=self._seg[:count], geo=self._geo[:count], lam=self._lam[:count], shapes=self.shapes)

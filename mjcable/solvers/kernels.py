@@ -44,8 +44,11 @@ import math
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 # The projections, the direct order and the layout, re-exported: callers keep importing them from here.
 from mjcable.solvers.constraint_kernels import (
-    _bend_clamp_sweeps, clamp_sweep, contact_sweep, curvature_sweep, self_contact_sweep,  # noqa: F401
+    _bend_clamp_sweeps, clamp_sweep, curvature_sweep,  # noqa: F401
     stretch_step, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
+)
+from mjcable.solvers.contact_kernels import (
+    contact_sweep, friction_sweep, reset_friction, self_contact_sweep, shape_distance, update_anchors,  # noqa: F401
 )
 from mjcable.solvers.direct_kernels import (
     _DIRECT_CONTRACTION, _DIRECT_MAX_SOLVES, _DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,  # noqa: F401
@@ -55,15 +58,16 @@ from mjcable.solvers.direct_kernels import (
 from mjcable.solvers.kernels_layout import (
     _F_ALPHA_B, _F_ALPHA_C, _F_ALPHA_S, _F_DAMP, _F_GX, _F_GY, _F_GZ, _F_H, _F_INV_L0SQ, _F_K_B,  # noqa: F401
     _F_K_C, _F_K_S, _F_OMEGA, _F_RADIUS, _I_BEND, _I_BW, _I_DIRECT_ALL, _I_ITER, _I_ORDER, _I_SQRT,  # noqa: F401
-    _L_DISTANCE, _L_DT, _L_FALL, _L_MARGIN, _L_RADIUS, _L_SPEED, _TINY_LENGTH, _TINY_SLIP,  # noqa: F401
+    _F_MU_SELF, _L_DISTANCE, _L_DT, _L_FALL, _L_MARGIN, _L_RADIUS, _L_SPEED, _TINY_LENGTH, _TINY_SLIP,  # noqa: F401
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, FP, IP, LIM, N_FP, N_IP, ORDER_DIRECT,  # noqa: F401
     ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PHASE_ALL, PHASE_BEGIN, PHASE_END, PHASE_ITERATE, ROW_CLAMP,  # noqa: F401
-    ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH, Chain, Contacts,  # noqa: F401
+    ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH, Chain, Contacts, N_FR, N_SH,  # noqa: F401
+    SH_POS, SH_ROT, SH_SIZE, SH_TYPE,  # noqa: F401
 )
 
 __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_flat", "step_margin", "begin_substep",
            "iterate", "end_substep", "xpbd_multiplier", "stretch_step", "stretch_step_sqrt", "stretch_sweep",
-           "curvature_sweep", "clamp_sweep", "contact_sweep", "self_contact_sweep", "direct_solve",
+           "curvature_sweep", "clamp_sweep", "contact_sweep", "friction_sweep", "self_contact_sweep", "direct_solve",
            "banded_ldlt_solve", "FP", "IP", "LIM"]
 
 
@@ -108,6 +112,7 @@ def begin_substep(S, C, sub, n_sub):
     S.lam_c[:] = 0.0
     C.lam[:] = 0.0
     C.slam[:] = 0.0
+    reset_friction(S.fric)
 
 
 @_jit
@@ -170,20 +175,23 @@ def iterate(S, C):
         if bend_or_clamp:  # a call passing S costs microseconds: skip it when there is nothing to do
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
     if C.seg.shape[0]:
-        contact_sweep(x, S.x0, w, S.react, C.seg, C.geo, C.lam)
+        contact_sweep(x, w, S.react, S.fric, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS])
+        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, C.shapes, fp[_F_RADIUS])
     if C.pair.shape[0]:
-        self_contact_sweep(x, w, S.react, C.pair, C.sgeo, 2.0 * fp[_F_RADIUS], C.slam)
+        self_contact_sweep(x, S.x0, w, S.react, C.pair, C.sgeo, 2.0 * fp[_F_RADIUS], fp[_F_MU_SELF], C.slam)
 
 
 @_inline
-def end_substep(S):
-    """v = (x − x₀)/h; pin forces from the reactions, F = −Σ ∇C λ / h² − m g (the force that holds the particle,
+def end_substep(S, C):
+    """Contact anchors (:func:`update_anchors`); v = (x − x₀)/h; pin forces from the reactions, F = −Σ ∇C λ / h² − m g (the force that holds the particle,
     [M16]'s force estimate); sockets whose force exceeds their release force let go (with their clamp). Returns the number
     released."""
     fp = S.fp
     inv_h = 1.0 / fp[_F_H]
     inv_h2 = inv_h * inv_h
     x, v, x0 = S.x, S.v, S.x0
+    if C.shapes.shape[0]:
+        update_anchors(x, S.fric, S.anchor, S.anchor_ob, C.shapes)
     for p in range(x.shape[0]):
         v[p, 0] = (x[p, 0] - x0[p, 0]) * inv_h
         v[p, 1] = (x[p, 1] - x0[p, 1]) * inv_h
@@ -224,7 +232,7 @@ def run_substeps(S, C, n_sub, phase, sub):
             for _ in range(iterations):
                 iterate(S, C)
         if phase == PHASE_ALL or phase == PHASE_END:
-            released += end_substep(S)
+            released += end_substep(S, C)
     finite = True
     x, v = S.x, S.v
     for p in range(x.shape[0]):
@@ -237,14 +245,14 @@ def run_substeps(S, C, n_sub, phase, sub):
 @_jit
 def run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
                       clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind,
-                      row_idx, row_p, prow, pslot, band, grad, rhs, fp, ip, seg, geo, lam, pair, sgeo, slam, n_sub,
-                      phase, sub):
+                      row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair,
+                      sgeo, slam, shapes, n_sub, phase, sub):
     """:func:`run_substeps` with the state's arrays as separate arguments (``*chain, *contacts, n_sub, phase,
     sub``): numba types plain array arguments in C but a named tuple of 40 arrays in Python (about 25 µs a call)."""
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
               clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
-              row_p, prow, pslot, band, grad, rhs, fp, ip)
-    C = Contacts(seg, geo, lam, pair, sgeo, slam)
+              row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
+    C = Contacts(seg, geo, lam, pair, sgeo, slam, shapes)
     return run_substeps(S, C, n_sub, phase, sub)
 
 
@@ -308,8 +316,9 @@ def _step_checks(x, v, prev, lim):
 @_jit
 def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
                    clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
-                   row_p, prow, pslot, band, grad, rhs, fp, ip, seg, geo, lam, pair, sgeo, slam, n_sub, n_steps, solo,
-                   lim, box_lo, box_hi, plane_n, plane_p, prev, rows, out_x, out_v, clock):
+                   row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo,
+                   slam, shapes, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev, rows, out_x, out_v,
+                   clock):
     """Up to ``n_steps`` whole steps of ``n_sub`` substeps (:func:`run_substeps`) in one call (``*chain,
     *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones none. After each
     step, as the Python step: the pins' start moves to their target (a gripper move spreads over one step),
@@ -324,9 +333,9 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
       caller queries its contacts."""
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
               clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
-              row_p, prow, pslot, band, grad, rhs, fp, ip)
-    given = Contacts(seg, geo, lam, pair, sgeo, slam)
-    none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0])
+              row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
+    given = Contacts(seg, geo, lam, pair, sgeo, slam, shapes)
+    none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0], shapes)
     obstacles = box_lo.shape[0] + plane_n.shape[0] > 0
     released, stored = 0, 0
     for k in range(n_steps):
@@ -341,7 +350,7 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
             begin_substep(S, C, sub, n_sub)
             for _ in range(ip[_I_ITER]):
                 iterate(S, C)
-            released += end_substep(S)
+            released += end_substep(S, C)
         for q in range(pin_to.shape[0]):
             pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
         clock[0] += lim[_L_DT]

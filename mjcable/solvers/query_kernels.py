@@ -90,10 +90,11 @@ def find_self_contacts(x, reach, pair, sgeo):
 
 
 @_jit
-def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, geom_friction, x, radius, seg, geo):
+def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, shape_of_geom, geom_friction, x, radius, seg, geo):
     """Turn MuJoCo's contacts (``geom`` (c, 2), ``dist`` (c,), ``pos`` (c, 3), ``frame`` (c, 9)) between proxy
-    capsules and obstacles into half-space constraints: fills ``seg`` and ``geo`` = [s, n, offset, μ] (see
-    :func:`contact_sweep`) and returns their number.
+    capsules and obstacles into the solver's contacts: fills ``seg`` and ``geo`` = [s, n, offset, μ, shape row]
+    (see :func:`mjcable.solvers.contact_kernels.contact_sweep`; ``shape_of_geom`` maps a geom id to its row of
+    ``Contacts.shapes``, −1 for none) and returns their number.
 
     MuJoCo's normal points from geom[0] to geom[1] and ``pos`` lies midway between the surfaces; with n the normal
     from the obstacle to the cable, the obstacle's surface point is q = pos − (dist/2) n and the capsule's axis
@@ -124,6 +125,7 @@ def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, geom_friction,
         geo[count, 1], geo[count, 2], geo[count, 3] = nx, ny, nz
         geo[count, 4] = nx * qx + ny * qy + nz * qz + radius
         geo[count, 5] = geom_friction[other, 0]
+        geo[count, 6] = shape_of_geom[other]
         count += 1
     return count
 

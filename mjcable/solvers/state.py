@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -144,6 +145,7 @@ def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float)
     fp[FP["inv_l0sq"]] = 1.0 / l0**2
     fp[FP["omega"]] = settings.omega
     fp[FP["radius"]] = cable.radius
+    fp[FP["mu_self"]] = cable.friction
     ip = np.zeros(kernels.N_IP, dtype=np.int64)
     ip[IP["iterations"]] = settings.iterations
     ip[IP["order"]] = ORDER_CODES[settings.order]
@@ -160,12 +162,15 @@ def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float)
         lam_c=np.zeros((len(clamps), 2)),
         pin_p=pin_p, pin_from=pin_from, pin_to=pin_from.copy(), pin_active=np.ones(len(pins), dtype=np.bool_),
         pin_release=release, pin_force=np.zeros((len(pins), 3)),
+        fric=np.zeros((n_particles, kernels.N_FR)), anchor=np.zeros((n_particles, 3)),
+        anchor_ob=np.full(n_particles, -1, dtype=np.int64),
         fp=fp, ip=ip, **rows,
     )
 
 
-def empty_contacts(capacity: int = 0) -> kernels.Contacts:
-    """Contact arrays holding no contacts."""
-    return kernels.Contacts(seg=np.zeros(capacity, dtype=np.int64), geo=np.zeros((capacity, 6)),
-                            lam=np.zeros((capacity, 2)), pair=np.zeros((0, 2), dtype=np.int64),
-                            sgeo=np.zeros((0, 5)), slam=np.zeros(0))
+def empty_contacts(capacity: int = 0, shapes: Optional[np.ndarray] = None) -> kernels.Contacts:
+    """Contact arrays holding no contacts, with the obstacles' ``shapes`` (B, ``kernels.N_SH``; default none)."""
+    return kernels.Contacts(seg=np.zeros(capacity, dtype=np.int64), geo=np.zeros((capacity, 7)),
+                            lam=np.zeros(capacity), pair=np.zeros((0, 2), dtype=np.int64),
+                            sgeo=np.zeros((0, 5)), slam=np.zeros((0, 2)),
+                            shapes=np.zeros((0, kernels.N_SH)) if shapes is None else shapes)

@@ -1,0 +1,346 @@
+"""Contacts of the particle solvers, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`): the obstacles'
+shapes, the normal projections of obstacle and self contacts, and Coulomb friction with persistent anchors.
+Re-exported by :mod:`mjcable.solvers.kernels`.
+
+**Geometry.** ``mj_collision`` finds the contacts once per step (with a margin that covers the step's travel): a
+segment (i, i+1), the fraction s of its axis point p = (1 − s) xᵢ + s xᵢ₊₁, and the obstacle. In every substep and
+iteration the point is measured against the obstacle's real shape (:func:`shape_distance`: the geom's MuJoCo type,
+size and pose), C = d(p) − r ≥ 0 with r the cable's radius and n = ∇d, so that a cable sliding over a curved
+surface follows it. Meshes and other types keep the detection's half-space n₀·p ≥ n₀·q + r.
+
+**Normal.** C ≥ 0 is projected with the segment weights (1 − s, s) of Jakobsen's segment collision ([J01],
+"c1, c2"), mass-weighted ([M16] Eq. 18 with α = 0): Δλₙ = −C / Σ wⱼ ∇ⱼC², Δxⱼ = wⱼ ∇ⱼC Δλₙ, ∇ᵢC = (1 − s) n,
+∇ᵢ₊₁C = s n.
+
+**Friction per particle.** Several segment contacts share a particle (a rope wrapped on a peg touches it with every
+chord), and the split of the normal force between neighbouring chords is statically indeterminate: a Gauss-Seidel
+sweep leaves it alternating, big and small, while each particle's total is exact. So friction acts on particles:
+particle j's normal multiplier λₙⱼ = Σ_c ∇ⱼC_c Δλₙ_c (summed over its contacts and the substep's iterations), its
+friction budget Σ_c μ_c ∇ⱼC_c Δλₙ_c and its normal n̂ⱼ the direction of Σ_c ∇ⱼC_c Δλₙ_c n_c.
+
+**Static friction with anchors** ([M20] §3.5, positional static friction; here kept across substeps and steps). A
+pressed particle has an anchor on the obstacle, stored in the obstacle's frame; it is set where the particle was
+when the substep began the first time the particle presses. Each iteration pulls the particle's tangential offset
+from its anchor, Δx_t = (xⱼ − aⱼ) − ((xⱼ − aⱼ)·n̂) n̂, back with Δλ_t = |Δx_t| / wⱼ, as long as the substep's
+Σ Δλ_t ≤ μ λₙ (Coulomb's cone, both multipliers are impulses × h). Beyond, the correction is capped at μ λₙ: the
+kinetic friction force μ N = μ λₙ / h², and the particle slides; the anchor then moves to where the substep leaves
+the particle. An anchor is dropped when its particle no longer presses. So a sticking contact does not creep: a
+slip left over by one substep's single iteration is pulled back in the next ones (the drift that resetting the
+anchor every substep cannot undo), and the result does not depend on the substep count ([M19]: the same forces
+per unit time at any h).
+
+**Self contacts** between non-adjacent segments are projected the same way, with C = n·(pᵢ − pⱼ) − 2r, and get the
+same Coulomb friction on their relative tangential slip since the substep began, capped at μ λₙ per contact.
+
+References:
+  [J01] T. Jakobsen, "Advanced Character Physics", GDC 2001 (in ``shared/seeds``).
+  [M16] M. Macklin, M. Müller, N. Chentanez, "XPBD: Position-Based Simulation of Compliant Constrained
+        Dynamics", MIG 2016.
+  [M19] M. Macklin, K. Storey, M. Lu, P. Terdiman, N. Chentanez, S. Jeschke, M. Müller, "Small Steps in Physics
+        Simulation", SCA 2019.
+  [M20] M. Müller, M. Macklin, N. Chentanez, S. Jeschke, T.-Y. Kim, "Detailed Rigid Body Simulation with Extended
+        Position Based Dynamics", SCA 2020.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, FR_FN, FR_FT, FR_GN, FR_MU, FR_NX, FR_OB,
+                                            FR_SLID,
+                                            GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE,
+                                            GEOM_SPHERE, SH_POS, SH_ROT, SH_SIZE, SH_TYPE)
+
+__all__ = ["shape_distance", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
+           "reset_friction"]
+
+
+@_inline
+def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
+    """(C, n): C = signed distance of the axis point p from the obstacle's surface minus the cable ``radius``, n the
+    outward unit normal (world), from ``shape`` (16,) = [MuJoCo geom type, size (3), pos (3), row-major rot (9)].
+
+    Exact closest points for spheres, capsules, cylinders and boxes, the plane's half-space, and for ellipsoids the
+    first-order estimate (f − 1) / |∇f| with f = Σ qₖ² / aₖ² (exact on the surface). Every other type, and a
+    degenerate point (at a sphere's centre), uses the detection's half-space n₀·p ≥ ``offset``. Sided against
+    tunnelling: a point inside a round shape whose normal turned against the detection normal n₀ (it went past
+    the centre) keeps the detection half-space, and a box pushes a point out through the face n₀ detected (the
+    face whose normal is closest to n₀), also after the point went through a thin plate."""
+    typ = int(shape[SH_TYPE])
+    sx, sy, sz = shape[SH_SIZE], shape[SH_SIZE + 1], shape[SH_SIZE + 2]
+    r = SH_ROT
+    dx, dy, dz = px - shape[SH_POS], py - shape[SH_POS + 1], pz - shape[SH_POS + 2]
+    qx = shape[r] * dx + shape[r + 3] * dy + shape[r + 6] * dz  # q = Rᵀ (p − pos): the point in the geom frame
+    qy = shape[r + 1] * dx + shape[r + 4] * dy + shape[r + 7] * dz
+    qz = shape[r + 2] * dx + shape[r + 5] * dy + shape[r + 8] * dz
+    lx, ly, lz, d, exact = 0.0, 0.0, 1.0, 0.0, True
+    if typ == GEOM_PLANE:
+        d = qz
+    elif typ == GEOM_SPHERE or typ == GEOM_CAPSULE:
+        if typ == GEOM_CAPSULE:
+            qz -= min(max(qz, -sy), sy)
+        rad = math.sqrt(qx * qx + qy * qy + qz * qz)
+        if rad > _TINY_LENGTH:
+            lx, ly, lz = qx / rad, qy / rad, qz / rad
+        else:
+            exact = False
+        d = rad - sx
+    elif typ == GEOM_CYLINDER:
+        rad = math.sqrt(qx * qx + qy * qy)
+        ox, oy = (qx / rad, qy / rad) if rad > _TINY_LENGTH else (1.0, 0.0)
+        cap = 1.0 if qz >= 0.0 else -1.0
+        d_side, d_cap = rad - sx, abs(qz) - sy
+        if d_side > 0.0 and d_cap > 0.0:  # beyond the rim: the closest point is on the rim circle
+            d = math.sqrt(d_side * d_side + d_cap * d_cap)
+            lx, ly, lz = d_side * ox / d, d_side * oy / d, d_cap * cap / d
+        elif d_side >= d_cap:
+            d, lx, ly, lz = d_side, ox, oy, 0.0
+        else:
+            d, lz = d_cap, cap
+    elif typ == GEOM_BOX:
+        mx = shape[r] * n0x + shape[r + 3] * n0y + shape[r + 6] * n0z  # n₀ in the box frame picks the face
+        my = shape[r + 1] * n0x + shape[r + 4] * n0y + shape[r + 7] * n0z
+        mz = shape[r + 2] * n0x + shape[r + 5] * n0y + shape[r + 8] * n0z
+        ex, ey, ez = abs(qx) - sx, abs(qy) - sy, abs(qz) - sz
+        if abs(mx) >= abs(my) and abs(mx) >= abs(mz):
+            k, sign, qk, hk, beside = 0, (1.0 if mx >= 0.0 else -1.0), qx, sx, ey > 0.0 or ez > 0.0
+        elif abs(my) >= abs(mz):
+            k, sign, qk, hk, beside = 1, (1.0 if my >= 0.0 else -1.0), qy, sy, ex > 0.0 or ez > 0.0
+        else:
+            k, sign, qk, hk, beside = 2, (1.0 if mz >= 0.0 else -1.0), qz, sz, ex > 0.0 or ey > 0.0
+        if not beside and sign * qk <= hk:  # inside, or through the plate under the detected face
+            d = sign * qk - hk
+            lx, ly, lz = (sign, 0.0, 0.0) if k == 0 else ((0.0, sign, 0.0) if k == 1 else (0.0, 0.0, sign))
+        else:  # outside: the closest point on the box
+            cx = qx - min(max(qx, -sx), sx)
+            cy = qy - min(max(qy, -sy), sy)
+            cz = qz - min(max(qz, -sz), sz)
+            d = math.sqrt(cx * cx + cy * cy + cz * cz)
+            if d > _TINY_LENGTH:
+                lx, ly, lz = cx / d, cy / d, cz / d
+            else:
+                exact = False
+    elif typ == GEOM_ELLIPSOID:
+        gx, gy, gz = qx / (sx * sx), qy / (sy * sy), qz / (sz * sz)  # ½ ∇f
+        g = math.sqrt(gx * gx + gy * gy + gz * gz)
+        if g > _TINY_LENGTH:
+            d = 0.5 * (qx * gx + qy * gy + qz * gz - 1.0) / g
+            lx, ly, lz = gx / g, gy / g, gz / g
+        else:
+            exact = False
+    else:
+        exact = False
+    nx = shape[r] * lx + shape[r + 1] * ly + shape[r + 2] * lz  # n = R l
+    ny = shape[r + 3] * lx + shape[r + 4] * ly + shape[r + 5] * lz
+    nz = shape[r + 6] * lx + shape[r + 7] * ly + shape[r + 8] * lz
+    if exact and d < 0.0 and nx * n0x + ny * n0y + nz * n0z < 0.0:
+        exact = False
+    if not exact:
+        return n0x * px + n0y * py + n0z * pz - offset, n0x, n0y, n0z
+    return d - radius, nx, ny, nz
+
+
+@_inline
+def _to_local(shape, px, py, pz):
+    """Rᵀ (p − pos): a world point in the geom's frame."""
+    r = SH_ROT
+    dx, dy, dz = px - shape[SH_POS], py - shape[SH_POS + 1], pz - shape[SH_POS + 2]
+    return (shape[r] * dx + shape[r + 3] * dy + shape[r + 6] * dz,
+            shape[r + 1] * dx + shape[r + 4] * dy + shape[r + 7] * dz,
+            shape[r + 2] * dx + shape[r + 5] * dy + shape[r + 8] * dz)
+
+
+@_inline
+def _to_world(shape, qx, qy, qz):
+    """pos + R q: a point of the geom's frame in the world."""
+    r = SH_ROT
+    return (shape[SH_POS] + shape[r] * qx + shape[r + 1] * qy + shape[r + 2] * qz,
+            shape[SH_POS + 1] + shape[r + 3] * qx + shape[r + 4] * qy + shape[r + 5] * qz,
+            shape[SH_POS + 2] + shape[r + 6] * qx + shape[r + 7] * qy + shape[r + 8] * qz)
+
+
+@_inline
+def reset_friction(fric):
+    """Zero the substep's per-particle normal and friction sums (``fric`` (N, 8), columns ``FR_*``), keeping the
+    obstacle column."""
+    for p in range(fric.shape[0]):
+        for col in range(FR_OB):  # FR_OB is the last column
+            fric[p, col] = 0.0
+
+
+@_inline
+def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
+    """Obstacle contacts: segment ``seg`` (C,), ``geo`` (C, 7) = [s, n₀ (3), offset, μ, obstacle row in
+    ``shapes`` (B, 16) or −1], multipliers ``lam`` (C,). Projects C ≥ 0 (module docstring) against the obstacle's
+    shape, and adds each particle's share of Δλₙ to ``fric`` (its normal sum, μ-weighted sum and normal vector, and
+    the obstacle). A held particle (w = 0) collects its share of ∇C Δλ in ``react``."""
+    for c in range(seg.shape[0]):
+        i = seg[c]
+        j = i + 1
+        s = geo[c, 0]
+        a, b = 1.0 - s, s
+        wi, wj = w[i], w[j]
+        wsum = a * a * wi + b * b * wj
+        if wsum == 0.0:
+            continue
+        px = a * x[i, 0] + b * x[j, 0]
+        py = a * x[i, 1] + b * x[j, 1]
+        pz = a * x[i, 2] + b * x[j, 2]
+        k = int(geo[c, 6])
+        if k >= 0:
+            cval, nx, ny, nz = shape_distance(px, py, pz, shapes[k], geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4],
+                                              radius)
+        else:
+            nx, ny, nz = geo[c, 1], geo[c, 2], geo[c, 3]
+            cval = nx * px + ny * py + nz * pz - geo[c, 4]
+        if cval >= 0.0:
+            continue
+        dlam = -cval / wsum
+        lam[c] += dlam
+        mu = geo[c, 5]
+        for p, f, wp in ((i, a, wi), (j, b, wj)):
+            g = f * dlam
+            if wp > 0.0:
+                x[p, 0] += wp * g * nx
+                x[p, 1] += wp * g * ny
+                x[p, 2] += wp * g * nz
+            else:
+                react[p, 0] += g * nx
+                react[p, 1] += g * ny
+                react[p, 2] += g * nz
+            fric[p, FR_FN] += g
+            fric[p, FR_MU] += mu * g
+            fric[p, FR_NX] += g * nx
+            fric[p, FR_NX + 1] += g * ny
+            fric[p, FR_NX + 2] += g * nz
+            fric[p, FR_GN] += f * nx
+            fric[p, FR_GN + 1] += f * ny
+            fric[p, FR_GN + 2] += f * nz
+            fric[p, FR_OB] = k
+
+
+@_inline
+def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
+    """Coulomb friction of every pressed particle against its anchor (module docstring): ``fric`` (N, N_FR) from
+    :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,) (−1: none; a
+    new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
+
+    The cone is the particle's: its normal n̂ is the obstacle's at the particle (:func:`shape_distance`), its
+    normal impulse λₙ = n̂·Σ Δλ_c n_c, and the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
+    (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
+    |t_c + f| ≤ μ λₙ."""
+    for p in range(x.shape[0]):
+        if fric[p, FR_FN] <= 0.0 or w[p] == 0.0:
+            continue
+        k = int(fric[p, FR_OB])
+        if k < 0:
+            continue
+        shape = shapes[k]
+        sx, sy, sz = fric[p, FR_NX], fric[p, FR_NX + 1], fric[p, FR_NX + 2]  # Σ Δλ_c n_c
+        norm = math.sqrt(sx * sx + sy * sy + sz * sz)
+        if norm <= 0.0:
+            continue
+        nx, ny, nz = fric[p, FR_GN], fric[p, FR_GN + 1], fric[p, FR_GN + 2]
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if norm <= 0.0:
+            continue
+        nx, ny, nz = nx / norm, ny / norm, nz / norm
+        lam_n = sx * nx + sy * ny + sz * nz
+        if lam_n <= 0.0:
+            continue
+        tcx, tcy, tcz = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
+        cone = fric[p, FR_MU] / fric[p, FR_FN] * lam_n
+        if anchor_ob[p] != k:
+            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shape, x0[p, 0], x0[p, 1], x0[p, 2])
+            anchor_ob[p] = k
+        ax, ay, az = _to_world(shape, anchor[p, 0], anchor[p, 1], anchor[p, 2])
+        dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
+        dn = dx * nx + dy * ny + dz * nz
+        inv_w = 1.0 / w[p]
+        fx0, fy0, fz0 = fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2]
+        fx = fx0 - (dx - dn * nx) * inv_w  # the friction impulse that puts the particle back over its anchor
+        fy = fy0 - (dy - dn * ny) * inv_w
+        fz = fz0 - (dz - dn * nz) * inv_w
+        ux, uy, uz = tcx + fx, tcy + fy, tcz + fz
+        total = math.sqrt(ux * ux + uy * uy + uz * uz)
+        if total > cone:  # outside the cone: kinetic friction on its rim, and the particle slides
+            scale = cone / total
+            fx, fy, fz = scale * ux - tcx, scale * uy - tcy, scale * uz - tcz
+            fric[p, FR_SLID] = 1.0
+        fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2] = fx, fy, fz
+        x[p, 0] += w[p] * (fx - fx0)
+        x[p, 1] += w[p] * (fy - fy0)
+        x[p, 2] += w[p] * (fz - fz0)
+
+
+@_inline
+def update_anchors(x, fric, anchor, anchor_ob, shapes):
+    """End of a substep: drop the anchors of particles that no longer press, and move those of sliding particles
+    to where they are now (in their obstacle's frame)."""
+    for p in range(x.shape[0]):
+        if anchor_ob[p] < 0:
+            continue
+        if fric[p, FR_FN] <= 0.0:
+            anchor_ob[p] = -1
+        elif fric[p, FR_SLID] > 0.0:
+            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes[anchor_ob[p]], x[p, 0], x[p, 1], x[p, 2])
+
+
+@_jit
+def self_contact_sweep(x, x0, w, react, pair, sgeo, gap, mu, lam):
+    """Self contacts of non-adjacent segments (i, i+1) and (j, j+1) at fractions s, t, linearised once per step
+    with the unit normal n from segment j to segment i: C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four
+    particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb
+    friction μ on the relative tangential slip of the two axis points since the substep began ([M20]'s static
+    friction, capped at μ λₙ: kinetic beyond). ``lam`` (S, 2) = [λₙ, λ_t]."""
+    for c in range(pair.shape[0]):
+        i = pair[c, 0]
+        j = pair[c, 1]
+        s, t = sgeo[c, 0], sgeo[c, 1]
+        nx, ny, nz = sgeo[c, 2], sgeo[c, 3], sgeo[c, 4]
+        a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
+        wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
+        if wsum == 0.0:
+            continue
+        cval = -gap
+        cval += nx * (a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0])
+        cval += ny * (a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1])
+        cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
+        if cval < 0.0:
+            dlam = -cval / wsum
+            lam[c, 0] += dlam
+            for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
+                if w[p] > 0.0:
+                    x[p, 0] += w[p] * f * dlam * nx
+                    x[p, 1] += w[p] * f * dlam * ny
+                    x[p, 2] += w[p] * f * dlam * nz
+                else:
+                    react[p, 0] += f * dlam * nx
+                    react[p, 1] += f * dlam * ny
+                    react[p, 2] += f * dlam * nz
+        if mu <= 0.0 or lam[c, 0] <= 0.0:
+            continue
+        ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
+        for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
+            ux += f * (x[p, 0] - x0[p, 0])
+            uy += f * (x[p, 1] - x0[p, 1])
+            uz += f * (x[p, 2] - x0[p, 2])
+        un = ux * nx + uy * ny + uz * nz
+        tx, ty, tz = ux - un * nx, uy - un * ny, uz - un * nz
+        slip = math.sqrt(tx * tx + ty * ty + tz * tz)
+        budget = mu * lam[c, 0] - lam[c, 1]
+        if slip <= _TINY_SLIP or budget <= 0.0:
+            continue
+        dlam_t = min(slip / wsum, budget)
+        lam[c, 1] += dlam_t
+        g = -dlam_t / slip
+        for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
+            if w[p] > 0.0:
+                x[p, 0] += w[p] * f * g * tx
+                x[p, 1] += w[p] * f * g * ty
+                x[p, 2] += w[p] * f * g * tz
+            else:
+                react[p, 0] += f * g * tx
+                react[p, 1] += f * g * ty
+                react[p, 2] += f * g * tz
