@@ -62,7 +62,8 @@ def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
     outward unit normal (world), from ``shape`` (16,) = [MuJoCo geom type, size (3), pos (3), row-major rot (9)].
 
     Exact closest points for spheres, capsules, cylinders and boxes, the plane's half-space, and for ellipsoids the
-    first-order estimate (f − 1) / |∇f| with f = Σ qₖ² / aₖ² (exact on the surface). Every other type, and a
+    estimate k₀ (k₀ − 1) / k₁ with k₀ = |q / a|, k₁ = |q / a²| (exact on the surface and along the axes; Quílez's
+    ellipsoid distance bound) and the normal along ∇(Σ qₖ² / aₖ²). Every other type, and a
     degenerate point (at a sphere's centre), uses the detection's half-space n₀·p ≥ ``offset``. Sided against
     tunnelling: a point inside a round shape whose normal turned against the detection normal n₀ (it went past
     the centre) keeps the detection half-space, and a box pushes a point out through the face n₀ detected (the
@@ -125,7 +126,8 @@ def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
         gx, gy, gz = qx / (sx * sx), qy / (sy * sy), qz / (sz * sz)  # ½ ∇f
         g = math.sqrt(gx * gx + gy * gy + gz * gz)
         if g > _TINY_LENGTH:
-            d = 0.5 * (qx * gx + qy * gy + qz * gz - 1.0) / g
+            k0 = math.sqrt(qx * gx + qy * gy + qz * gz)  # |q / a|: 1 on the surface
+            d = k0 * (k0 - 1.0) / g
             lx, ly, lz = gx / g, gy / g, gz / g
         else:
             exact = False
