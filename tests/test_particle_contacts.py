@@ -139,7 +139,7 @@ def test_obstacle_shapes_measure_the_distance_mujoco_measures(typ, size):
         if not 0.001 < ref < 0.02:
             continue
         direction = (fromto[3:] - fromto[:3]) / np.linalg.norm(fromto[3:] - fromto[:3])  # the detection normal
-        cval, nx, ny, nz = contact_kernels.shape_distance(*p, shape, *direction, 0.0, 0.0)
+        cval, nx, ny, nz = contact_kernels.shape_distance(*p, shape[None], 0, *direction, 0.0, 0.0)
         tol = 0.1 * ref if typ == mujoco.mjtGeom.mjGEOM_ELLIPSOID else 1e-6  # ellipsoid: first-order estimate
         assert cval == pytest.approx(ref, abs=tol)
         if typ != mujoco.mjtGeom.mjGEOM_ELLIPSOID:

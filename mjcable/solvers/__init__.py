@@ -27,6 +27,7 @@ setting                   meaning                                               
 Module map: :mod:`~mjcable.solvers.settings` (the settings dataclasses), :mod:`~mjcable.solvers.state` (arrays),
 :mod:`~mjcable.solvers.kernels` (the substep and step drivers; it re-exports the projections they call:
 :mod:`~mjcable.solvers.constraint_kernels`, the sweeps citing paper and equation,
+:mod:`~mjcable.solvers.contact_kernels`, obstacle shapes, contacts and Coulomb friction with anchors,
 :mod:`~mjcable.solvers.direct_kernels`, the direct order, and :mod:`~mjcable.solvers.kernels_layout`, indices and
 named tuples; their numba cache is stamped with all kernel files, :mod:`~mjcable.solvers._kernel_cache`),
 :mod:`~mjcable.solvers.query_kernels` (contact queries and proxy poses, called from Python),
@@ -35,9 +36,10 @@ named tuples; their numba cache is stamped with all kernel files, :mod:`~mjcable
 compliances and factors), :mod:`~mjcable.solvers.user_constraints` (PBD's user constraints).
 """
 
-from mjcable.solvers import jakobsen, kernels, pbd, query_kernels, settings, state, user_constraints, xpbd
+from mjcable.solvers import (contact_kernels, jakobsen, kernels, pbd, query_kernels, settings, state,
+                             user_constraints, xpbd)
 from mjcable.solvers.settings import JakobsenSettings, ParticleSettings, PBDSettings, XPBDSettings
 from mjcable.solvers.user_constraints import UserConstraint
 
 __all__ = ["ParticleSettings", "JakobsenSettings", "PBDSettings", "XPBDSettings", "UserConstraint", "jakobsen",
-           "pbd", "xpbd", "kernels", "query_kernels", "settings", "state", "user_constraints"]
+           "pbd", "xpbd", "kernels", "contact_kernels", "query_kernels", "settings", "state", "user_constraints"]

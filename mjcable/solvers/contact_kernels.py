@@ -57,9 +57,10 @@ __all__ = ["shape_distance", "contact_sweep", "friction_sweep", "self_contact_sw
 
 
 @_inline
-def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
+def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
     """(C, n): C = signed distance of the axis point p from the obstacle's surface minus the cable ``radius``, n the
-    outward unit normal (world), from ``shape`` (16,) = [MuJoCo geom type, size (3), pos (3), row-major rot (9)].
+    outward unit normal (world), from row ``row`` of ``shapes`` (B, 16) = [MuJoCo geom type, size (3), pos (3),
+    row-major rot (9)].
 
     Exact closest points for spheres, capsules, cylinders and boxes, the plane's half-space, and for ellipsoids the
     estimate k₀ (k₀ − 1) / k₁ with k₀ = |q / a|, k₁ = |q / a²| (exact on the surface and along the axes; Quílez's
@@ -68,13 +69,13 @@ def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
     tunnelling: a point inside a round shape whose normal turned against the detection normal n₀ (it went past
     the centre) keeps the detection half-space, and a box pushes a point out through the face n₀ detected (the
     face whose normal is closest to n₀), also after the point went through a thin plate."""
-    typ = int(shape[SH_TYPE])
-    sx, sy, sz = shape[SH_SIZE], shape[SH_SIZE + 1], shape[SH_SIZE + 2]
+    typ = int(shapes[row, SH_TYPE])
+    sx, sy, sz = shapes[row, SH_SIZE], shapes[row, SH_SIZE + 1], shapes[row, SH_SIZE + 2]
     r = SH_ROT
-    dx, dy, dz = px - shape[SH_POS], py - shape[SH_POS + 1], pz - shape[SH_POS + 2]
-    qx = shape[r] * dx + shape[r + 3] * dy + shape[r + 6] * dz  # q = Rᵀ (p − pos): the point in the geom frame
-    qy = shape[r + 1] * dx + shape[r + 4] * dy + shape[r + 7] * dz
-    qz = shape[r + 2] * dx + shape[r + 5] * dy + shape[r + 8] * dz
+    dx, dy, dz = px - shapes[row, SH_POS], py - shapes[row, SH_POS + 1], pz - shapes[row, SH_POS + 2]
+    qx = shapes[row, r] * dx + shapes[row, r + 3] * dy + shapes[row, r + 6] * dz  # q = Rᵀ (p − pos): the point in the geom frame
+    qy = shapes[row, r + 1] * dx + shapes[row, r + 4] * dy + shapes[row, r + 7] * dz
+    qz = shapes[row, r + 2] * dx + shapes[row, r + 5] * dy + shapes[row, r + 8] * dz
     lx, ly, lz, d, exact = 0.0, 0.0, 1.0, 0.0, True
     if typ == GEOM_PLANE:
         d = qz
@@ -100,19 +101,19 @@ def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
         else:
             d, lz = d_cap, cap
     elif typ == GEOM_BOX:
-        mx = shape[r] * n0x + shape[r + 3] * n0y + shape[r + 6] * n0z  # n₀ in the box frame picks the face
-        my = shape[r + 1] * n0x + shape[r + 4] * n0y + shape[r + 7] * n0z
-        mz = shape[r + 2] * n0x + shape[r + 5] * n0y + shape[r + 8] * n0z
+        mx = shapes[row, r] * n0x + shapes[row, r + 3] * n0y + shapes[row, r + 6] * n0z  # n₀ in the box frame picks the face
+        my = shapes[row, r + 1] * n0x + shapes[row, r + 4] * n0y + shapes[row, r + 7] * n0z
+        mz = shapes[row, r + 2] * n0x + shapes[row, r + 5] * n0y + shapes[row, r + 8] * n0z
         ex, ey, ez = abs(qx) - sx, abs(qy) - sy, abs(qz) - sz
         if abs(mx) >= abs(my) and abs(mx) >= abs(mz):
-            k, sign, qk, hk, beside = 0, (1.0 if mx >= 0.0 else -1.0), qx, sx, ey > 0.0 or ez > 0.0
+            face, sign, qk, hk, beside = 0, (1.0 if mx >= 0.0 else -1.0), qx, sx, ey > 0.0 or ez > 0.0
         elif abs(my) >= abs(mz):
-            k, sign, qk, hk, beside = 1, (1.0 if my >= 0.0 else -1.0), qy, sy, ex > 0.0 or ez > 0.0
+            face, sign, qk, hk, beside = 1, (1.0 if my >= 0.0 else -1.0), qy, sy, ex > 0.0 or ez > 0.0
         else:
-            k, sign, qk, hk, beside = 2, (1.0 if mz >= 0.0 else -1.0), qz, sz, ex > 0.0 or ey > 0.0
+            face, sign, qk, hk, beside = 2, (1.0 if mz >= 0.0 else -1.0), qz, sz, ex > 0.0 or ey > 0.0
         if not beside and sign * qk <= hk:  # inside, or through the plate under the detected face
             d = sign * qk - hk
-            lx, ly, lz = (sign, 0.0, 0.0) if k == 0 else ((0.0, sign, 0.0) if k == 1 else (0.0, 0.0, sign))
+            lx, ly, lz = (sign, 0.0, 0.0) if face == 0 else ((0.0, sign, 0.0) if face == 1 else (0.0, 0.0, sign))
         else:  # outside: the closest point on the box
             cx = qx - min(max(qx, -sx), sx)
             cy = qy - min(max(qy, -sy), sy)
@@ -133,9 +134,9 @@ def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
             exact = False
     else:
         exact = False
-    nx = shape[r] * lx + shape[r + 1] * ly + shape[r + 2] * lz  # n = R l
-    ny = shape[r + 3] * lx + shape[r + 4] * ly + shape[r + 5] * lz
-    nz = shape[r + 6] * lx + shape[r + 7] * ly + shape[r + 8] * lz
+    nx = shapes[row, r] * lx + shapes[row, r + 1] * ly + shapes[row, r + 2] * lz  # n = R l
+    ny = shapes[row, r + 3] * lx + shapes[row, r + 4] * ly + shapes[row, r + 5] * lz
+    nz = shapes[row, r + 6] * lx + shapes[row, r + 7] * ly + shapes[row, r + 8] * lz
     if exact and d < 0.0 and nx * n0x + ny * n0y + nz * n0z < 0.0:
         exact = False
     if not exact:
@@ -144,28 +145,29 @@ def shape_distance(px, py, pz, shape, n0x, n0y, n0z, offset, radius):
 
 
 @_inline
-def _to_local(shape, px, py, pz):
+def _to_local(shapes, row, px, py, pz):
     """Rᵀ (p − pos): a world point in the geom's frame."""
     r = SH_ROT
-    dx, dy, dz = px - shape[SH_POS], py - shape[SH_POS + 1], pz - shape[SH_POS + 2]
-    return (shape[r] * dx + shape[r + 3] * dy + shape[r + 6] * dz,
-            shape[r + 1] * dx + shape[r + 4] * dy + shape[r + 7] * dz,
-            shape[r + 2] * dx + shape[r + 5] * dy + shape[r + 8] * dz)
+    dx, dy, dz = px - shapes[row, SH_POS], py - shapes[row, SH_POS + 1], pz - shapes[row, SH_POS + 2]
+    return (shapes[row, r] * dx + shapes[row, r + 3] * dy + shapes[row, r + 6] * dz,
+            shapes[row, r + 1] * dx + shapes[row, r + 4] * dy + shapes[row, r + 7] * dz,
+            shapes[row, r + 2] * dx + shapes[row, r + 5] * dy + shapes[row, r + 8] * dz)
 
 
 @_inline
-def _to_world(shape, qx, qy, qz):
+def _to_world(shapes, row, qx, qy, qz):
     """pos + R q: a point of the geom's frame in the world."""
     r = SH_ROT
-    return (shape[SH_POS] + shape[r] * qx + shape[r + 1] * qy + shape[r + 2] * qz,
-            shape[SH_POS + 1] + shape[r + 3] * qx + shape[r + 4] * qy + shape[r + 5] * qz,
-            shape[SH_POS + 2] + shape[r + 6] * qx + shape[r + 7] * qy + shape[r + 8] * qz)
+    return (shapes[row, SH_POS] + shapes[row, r] * qx + shapes[row, r + 1] * qy + shapes[row, r + 2] * qz,
+            shapes[row, SH_POS + 1] + shapes[row, r + 3] * qx + shapes[row, r + 4] * qy + shapes[row, r + 5] * qz,
+            shapes[row, SH_POS + 2] + shapes[row, r + 6] * qx + shapes[row, r + 7] * qy + shapes[row, r + 8] * qz)
 
 
 @_inline
 def reset_friction(fric):
-    """Zero the substep's per-particle normal and friction sums (``fric`` (N, 8), columns ``FR_*``), keeping the
-    obstacle column."""
+    """Zero the substep's per-particle normal and friction sums (``fric`` (N, N_FR), columns ``FR_*``), keeping
+    the obstacle column. The step drivers leave this to :func:`update_anchors` (which zeroes the rows it used);
+    a Python caller of the sweeps calls it before each substep."""
     for p in range(fric.shape[0]):
         for col in range(FR_OB):  # FR_OB is the last column
             fric[p, col] = 0.0
@@ -191,7 +193,7 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
         pz = a * x[i, 2] + b * x[j, 2]
         k = int(geo[c, 6])
         if k >= 0:
-            cval, nx, ny, nz = shape_distance(px, py, pz, shapes[k], geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4],
+            cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4],
                                               radius)
         else:
             nx, ny, nz = geo[c, 1], geo[c, 2], geo[c, 3]
@@ -212,7 +214,7 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
                 react[p, 1] += g * ny
                 react[p, 2] += g * nz
             fric[p, FR_FN] += g
-            fric[p, FR_MU] += mu * g
+            fric[p, FR_MU] = max(fric[p, FR_MU], mu)
             fric[p, FR_NX] += g * nx
             fric[p, FR_NX + 1] += g * ny
             fric[p, FR_NX + 2] += g * nz
@@ -228,21 +230,19 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
     :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,) (−1: none; a
     new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
 
-    The cone is the particle's: its normal n̂ is the obstacle's at the particle (:func:`shape_distance`), its
-    normal impulse λₙ = n̂·Σ Δλ_c n_c, and the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
+    The cone is the particle's: its normal n̂ is the mean of its pressing contacts' normals, weighted by the
+    particle's share of each (the bisector of two chords on a curve), its normal impulse λₙ = n̂·Σ Δλ_c n_c, and the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
     (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
-    |t_c + f| ≤ μ λₙ."""
+    |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
+    grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
+    outside it)."""
     for p in range(x.shape[0]):
         if fric[p, FR_FN] <= 0.0 or w[p] == 0.0:
             continue
         k = int(fric[p, FR_OB])
         if k < 0:
             continue
-        shape = shapes[k]
         sx, sy, sz = fric[p, FR_NX], fric[p, FR_NX + 1], fric[p, FR_NX + 2]  # Σ Δλ_c n_c
-        norm = math.sqrt(sx * sx + sy * sy + sz * sz)
-        if norm <= 0.0:
-            continue
         nx, ny, nz = fric[p, FR_GN], fric[p, FR_GN + 1], fric[p, FR_GN + 2]
         norm = math.sqrt(nx * nx + ny * ny + nz * nz)
         if norm <= 0.0:
@@ -252,41 +252,50 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
         if lam_n <= 0.0:
             continue
         tcx, tcy, tcz = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
-        cone = fric[p, FR_MU] / fric[p, FR_FN] * lam_n
+        cone = fric[p, FR_MU] * lam_n
         if anchor_ob[p] != k:
-            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shape, x0[p, 0], x0[p, 1], x0[p, 2])
+            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
             anchor_ob[p] = k
-        ax, ay, az = _to_world(shape, anchor[p, 0], anchor[p, 1], anchor[p, 2])
+        ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
         dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
         dn = dx * nx + dy * ny + dz * nz
         inv_w = 1.0 / w[p]
         fx0, fy0, fz0 = fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2]
-        fx = fx0 - (dx - dn * nx) * inv_w  # the friction impulse that puts the particle back over its anchor
-        fy = fy0 - (dy - dn * ny) * inv_w
-        fz = fz0 - (dz - dn * nz) * inv_w
-        ux, uy, uz = tcx + fx, tcy + fy, tcz + fz
-        total = math.sqrt(ux * ux + uy * uy + uz * uz)
-        if total > cone:  # outside the cone: kinetic friction on its rim, and the particle slides
-            scale = cone / total
-            fx, fy, fz = scale * ux - tcx, scale * uy - tcy, scale * uz - tcz
+        ex = -(dx - dn * nx) * inv_w  # the friction impulse that puts the particle back over its anchor
+        ey = -(dy - dn * ny) * inv_w
+        ez = -(dz - dn * nz) * inv_w
+        ux, uy, uz = tcx + fx0, tcy + fy0, tcz + fz0  # the tangential impulse so far
+        qa = ex * ex + ey * ey + ez * ez
+        if qa <= 0.0:
+            continue
+        qb = ux * ex + uy * ey + uz * ez
+        qc = ux * ux + uy * uy + uz * uz - cone * cone
+        # the largest share α ∈ [0, 1] of that impulse inside the cone: |u + α e| ≤ μ λₙ
+        alpha = 0.0 if qc > 0.0 else (-qb + math.sqrt(max(qb * qb - qa * qc, 0.0))) / qa
+        if alpha < 1.0:  # outside the cone: kinetic friction on its rim, and the particle slides
             fric[p, FR_SLID] = 1.0
-        fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2] = fx, fy, fz
-        x[p, 0] += w[p] * (fx - fx0)
-        x[p, 1] += w[p] * (fy - fy0)
-        x[p, 2] += w[p] * (fz - fz0)
+        else:
+            alpha = 1.0
+        fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2] = fx0 + alpha * ex, fy0 + alpha * ey, fz0 + alpha * ez
+        g = w[p] * alpha
+        x[p, 0] += g * ex
+        x[p, 1] += g * ey
+        x[p, 2] += g * ez
 
 
 @_inline
 def update_anchors(x, fric, anchor, anchor_ob, shapes):
-    """End of a substep: drop the anchors of particles that no longer press, and move those of sliding particles
-    to where they are now (in their obstacle's frame)."""
+    """End of a substep: drop the anchors of particles that no longer press, move those of sliding particles to
+    where they are now (in their obstacle's frame), and zero the substep's sums (:func:`reset_friction`) of the
+    particles that had contacts."""
     for p in range(x.shape[0]):
-        if anchor_ob[p] < 0:
-            continue
         if fric[p, FR_FN] <= 0.0:
             anchor_ob[p] = -1
-        elif fric[p, FR_SLID] > 0.0:
-            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes[anchor_ob[p]], x[p, 0], x[p, 1], x[p, 2])
+            continue
+        if anchor_ob[p] >= 0 and fric[p, FR_SLID] > 0.0:
+            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, anchor_ob[p], x[p, 0], x[p, 1], x[p, 2])
+        for col in range(FR_OB):
+            fric[p, col] = 0.0
 
 
 @_jit

@@ -112,7 +112,6 @@ def begin_substep(S, C, sub, n_sub):
     S.lam_c[:] = 0.0
     C.lam[:] = 0.0
     C.slam[:] = 0.0
-    reset_friction(S.fric)
 
 
 @_jit

@@ -21,6 +21,8 @@ __all__ = ["find_self_contacts", "contacts_from_mujoco", "proxy_poses", "segment
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction
 _PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
+_END_FRACTION = 1e-9  # a contact this close to a segment's end (as a fraction of it) acts at the particle
+_SAME_NORMAL = 1.0 - 1e-6  # cosine above which two contacts at one particle with one obstacle are one contact
 
 @_inline
 def segment_closest(a, e, f, c, d1d2):
@@ -99,8 +101,11 @@ def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, shape_of_geom,
     MuJoCo's normal points from geom[0] to geom[1] and ``pos`` lies midway between the surfaces; with n the normal
     from the obstacle to the cable, the obstacle's surface point is q = pos − (dist/2) n and the capsule's axis
     point pos + (dist/2 + radius) n, at fraction s along its segment; offset = n·q + radius; μ is the obstacle's
-    (obstacles carry the higher priority, so theirs is the μ in force)."""
+    (obstacles carry the higher priority, so theirs is the μ in force). Two capsules meeting at a particle that both
+    touch an obstacle there with the same normal (a cable lying on a flat face: MuJoCo gives each capsule a contact
+    at each end) are one contact at that particle, kept once."""
     count = 0
+    at_particle = np.full(x.shape[0], -1, dtype=np.int64)  # the contact already acting at a particle (s = 0 or 1)
     for c in range(dist.shape[0]):
         s0 = segment_of_geom[geom[c, 0]]
         s1 = segment_of_geom[geom[c, 1]]
@@ -120,8 +125,16 @@ def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, shape_of_geom,
         frac = 0.0
         if e2 > 0.0:
             frac = ((px - x[i, 0]) * ex + (py - x[i, 1]) * ey + (pz - x[i, 2]) * ez) / e2
+        frac = 0.0 if frac < _END_FRACTION else (1.0 if frac > 1.0 - _END_FRACTION else frac)
+        if frac == 0.0 or frac == 1.0:  # at a particle: the neighbouring capsule's end contact may be the same
+            p = i if frac == 0.0 else i + 1
+            q = at_particle[p]
+            if q >= 0 and geo[q, 6] == shape_of_geom[other] and (
+                    geo[q, 1] * nx + geo[q, 2] * ny + geo[q, 3] * nz > _SAME_NORMAL):
+                continue
+            at_particle[p] = count
         seg[count] = i
-        geo[count, 0] = min(max(frac, 0.0), 1.0)
+        geo[count, 0] = frac
         geo[count, 1], geo[count, 2], geo[count, 3] = nx, ny, nz
         geo[count, 4] = nx * qx + ny * qy + nz * qz + radius
         geo[count, 5] = geom_friction[other, 0]
