@@ -15,16 +15,18 @@ surface follows it. Meshes and other types keep the detection's half-space n₀�
 **Friction per particle.** Several segment contacts share a particle (a rope wrapped on a peg touches it with every
 chord), and the split of the normal force between neighbouring chords is statically indeterminate: a Gauss-Seidel
 sweep leaves it alternating, big and small, while each particle's total is exact. So friction acts on particles:
-particle j's normal multiplier λₙⱼ = Σ_c ∇ⱼC_c Δλₙ_c (summed over its contacts and the substep's iterations), its
-friction budget Σ_c μ_c ∇ⱼC_c Δλₙ_c and its normal n̂ⱼ the direction of Σ_c ∇ⱼC_c Δλₙ_c n_c.
+particle j's normal n̂ⱼ is the mean of its pressing contacts' normals weighted by its share ∇ⱼC_c of each (on a
+curve, the bisector of the two chords), its normal multiplier λₙⱼ = n̂ⱼ·Σ_c ∇ⱼC_c Δλₙ_c n_c (summed over its
+contacts and the substep's iterations), and its μ the largest of its contacts'.
 
 **Static friction with anchors** ([M20] §3.5, positional static friction; here kept across substeps and steps). A
 pressed particle has an anchor on the obstacle, stored in the obstacle's frame; it is set where the particle was
 when the substep began the first time the particle presses. Each iteration pulls the particle's tangential offset
-from its anchor, Δx_t = (xⱼ − aⱼ) − ((xⱼ − aⱼ)·n̂) n̂, back with Δλ_t = |Δx_t| / wⱼ, as long as the substep's
-Σ Δλ_t ≤ μ λₙ (Coulomb's cone, both multipliers are impulses × h). Beyond, the correction is capped at μ λₙ: the
-kinetic friction force μ N = μ λₙ / h², and the particle slides; the anchor then moves to where the substep leaves
-the particle. An anchor is dropped when its particle no longer presses. So a sticking contact does not creep: a
+from its anchor, Δx_t = (xⱼ − aⱼ) − ((xⱼ − aⱼ)·n̂) n̂, back with the impulse −Δx_t / wⱼ, as long as the
+substep's tangential impulse (friction plus the chords' sideways push) stays in Coulomb's cone, |t| ≤ μ λₙ (both
+impulses × h). Beyond, only the share that reaches the cone's rim is applied: the kinetic friction force
+μ N = μ λₙ / h², and the particle slides; the anchor then moves to where the substep leaves the particle. An
+anchor is dropped when its particle no longer presses. So a sticking contact does not creep: a
 slip left over by one substep's single iteration is pulled back in the next ones (the drift that resetting the
 anchor every substep cannot undo), and the result does not depend on the substep count ([M19]: the same forces
 per unit time at any h).
@@ -73,7 +75,8 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
     sx, sy, sz = shapes[row, SH_SIZE], shapes[row, SH_SIZE + 1], shapes[row, SH_SIZE + 2]
     r = SH_ROT
     dx, dy, dz = px - shapes[row, SH_POS], py - shapes[row, SH_POS + 1], pz - shapes[row, SH_POS + 2]
-    qx = shapes[row, r] * dx + shapes[row, r + 3] * dy + shapes[row, r + 6] * dz  # q = Rᵀ (p − pos): the point in the geom frame
+    # q = Rᵀ (p − pos): the point in the geom frame
+    qx = shapes[row, r] * dx + shapes[row, r + 3] * dy + shapes[row, r + 6] * dz
     qy = shapes[row, r + 1] * dx + shapes[row, r + 4] * dy + shapes[row, r + 7] * dz
     qz = shapes[row, r + 2] * dx + shapes[row, r + 5] * dy + shapes[row, r + 8] * dz
     lx, ly, lz, d, exact = 0.0, 0.0, 1.0, 0.0, True
@@ -101,7 +104,8 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
         else:
             d, lz = d_cap, cap
     elif typ == GEOM_BOX:
-        mx = shapes[row, r] * n0x + shapes[row, r + 3] * n0y + shapes[row, r + 6] * n0z  # n₀ in the box frame picks the face
+        # n₀ in the box frame picks the face
+        mx = shapes[row, r] * n0x + shapes[row, r + 3] * n0y + shapes[row, r + 6] * n0z
         my = shapes[row, r + 1] * n0x + shapes[row, r + 4] * n0y + shapes[row, r + 7] * n0z
         mz = shapes[row, r + 2] * n0x + shapes[row, r + 5] * n0y + shapes[row, r + 8] * n0z
         ex, ey, ez = abs(qx) - sx, abs(qy) - sy, abs(qz) - sz
@@ -164,13 +168,19 @@ def _to_world(shapes, row, qx, qy, qz):
 
 
 @_inline
+def _zero_sums(fric, p):
+    """Zero particle p's substep sums in ``fric`` (N, N_FR), keeping its obstacle column (the last)."""
+    for col in range(FR_OB):
+        fric[p, col] = 0.0
+
+
+@_inline
 def reset_friction(fric):
     """Zero the substep's per-particle normal and friction sums (``fric`` (N, N_FR), columns ``FR_*``), keeping
     the obstacle column. The step drivers leave this to :func:`update_anchors` (which zeroes the rows it used);
     a Python caller of the sweeps calls it before each substep."""
     for p in range(fric.shape[0]):
-        for col in range(FR_OB):  # FR_OB is the last column
-            fric[p, col] = 0.0
+        _zero_sums(fric, p)
 
 
 @_inline
@@ -225,13 +235,14 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
 
 
 @_inline
-def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
+def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
     """Coulomb friction of every pressed particle against its anchor (module docstring): ``fric`` (N, N_FR) from
     :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,) (−1: none; a
     new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
 
     The cone is the particle's: its normal n̂ is the mean of its pressing contacts' normals, weighted by the
-    particle's share of each (the bisector of two chords on a curve), its normal impulse λₙ = n̂·Σ Δλ_c n_c, and the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
+    particle's share of each (the bisector of two chords on a curve), its normal impulse λₙ = n̂·Σ Δλ_c n_c, and
+    the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
     (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
     |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
     grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
@@ -294,8 +305,22 @@ def update_anchors(x, fric, anchor, anchor_ob, shapes):
             continue
         if anchor_ob[p] >= 0 and fric[p, FR_SLID] > 0.0:
             anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, anchor_ob[p], x[p, 0], x[p, 1], x[p, 2])
-        for col in range(FR_OB):
-            fric[p, col] = 0.0
+        _zero_sums(fric, p)
+
+
+@_inline
+def _move_pair(x, w, react, i, j, a0, a1, b0, b1, g, vx, vy, vz):
+    """Δxₚ = wₚ fₚ g v for the four particles of a segment pair, (i, i+1, j, j+1) with weights (a0, a1, b0, b1);
+    a held particle collects fₚ g v in ``react``."""
+    for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
+        if w[p] > 0.0:
+            x[p, 0] += w[p] * f * g * vx
+            x[p, 1] += w[p] * f * g * vy
+            x[p, 2] += w[p] * f * g * vz
+        else:
+            react[p, 0] += f * g * vx
+            react[p, 1] += f * g * vy
+            react[p, 2] += f * g * vz
 
 
 @_jit
@@ -321,15 +346,7 @@ def self_contact_sweep(x, x0, w, react, pair, sgeo, gap, mu, lam):
         if cval < 0.0:
             dlam = -cval / wsum
             lam[c, 0] += dlam
-            for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
-                if w[p] > 0.0:
-                    x[p, 0] += w[p] * f * dlam * nx
-                    x[p, 1] += w[p] * f * dlam * ny
-                    x[p, 2] += w[p] * f * dlam * nz
-                else:
-                    react[p, 0] += f * dlam * nx
-                    react[p, 1] += f * dlam * ny
-                    react[p, 2] += f * dlam * nz
+            _move_pair(x, w, react, i, j, a0, a1, b0, b1, dlam, nx, ny, nz)
         if mu <= 0.0 or lam[c, 0] <= 0.0:
             continue
         ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
@@ -345,13 +362,4 @@ def self_contact_sweep(x, x0, w, react, pair, sgeo, gap, mu, lam):
             continue
         dlam_t = min(slip / wsum, budget)
         lam[c, 1] += dlam_t
-        g = -dlam_t / slip
-        for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
-            if w[p] > 0.0:
-                x[p, 0] += w[p] * f * g * tx
-                x[p, 1] += w[p] * f * g * ty
-                x[p, 2] += w[p] * f * g * tz
-            else:
-                react[p, 0] += f * g * tx
-                react[p, 1] += f * g * ty
-                react[p, 2] += f * g * tz
+        _move_pair(x, w, react, i, j, a0, a1, b0, b1, -dlam_t / slip, tx, ty, tz)

@@ -48,7 +48,7 @@ from mjcable.solvers.constraint_kernels import (
     stretch_step, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
 )
 from mjcable.solvers.contact_kernels import (
-    contact_sweep, friction_sweep, reset_friction, self_contact_sweep, shape_distance, update_anchors,  # noqa: F401
+    contact_sweep, friction_sweep, self_contact_sweep, shape_distance, update_anchors,  # noqa: F401
 )
 from mjcable.solvers.direct_kernels import (
     _DIRECT_CONTRACTION, _DIRECT_MAX_SOLVES, _DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,  # noqa: F401
@@ -175,7 +175,7 @@ def iterate(S, C):
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
     if C.seg.shape[0]:
         contact_sweep(x, w, S.react, S.fric, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS])
-        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, C.shapes, fp[_F_RADIUS])
+        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, C.shapes)
     if C.pair.shape[0]:
         self_contact_sweep(x, S.x0, w, S.react, C.pair, C.sgeo, 2.0 * fp[_F_RADIUS], fp[_F_MU_SELF], C.slam)
 

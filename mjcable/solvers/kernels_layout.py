@@ -32,9 +32,9 @@ ROW_STRETCH, ROW_CURVATURE, ROW_DISTANCE, ROW_CLAMP = 0, 1, 2, 3
 GEOM_PLANE, GEOM_SPHERE, GEOM_CAPSULE, GEOM_ELLIPSOID, GEOM_CYLINDER, GEOM_BOX = 0, 2, 3, 4, 5, 6
 # Columns of Contacts.shapes (B, 16), one row per obstacle geom: type, size (3), pos (3), row-major rotation (9).
 SH_TYPE, SH_SIZE, SH_POS, SH_ROT, N_SH = 0, 1, 4, 7, 16
-# Columns of Chain.fric (N, 13), per particle and substep: its share of the contacts' Σ Δλₙ and Σ μ Δλₙ, slid (0/1),
-# Σ Δλₙ n (3), its friction impulse (3), Σ share · n over its pressing contacts (3), the obstacle row of its last
-# contact (kept across substeps).
+# Columns of Chain.fric (N, 13), per particle and substep: its share of the contacts' Σ Δλₙ, their largest μ,
+# slid (0/1), Σ Δλₙ n (3), its friction impulse (3), Σ share · n over its pressing contacts (3), the obstacle
+# row of its last contact (kept across substeps).
 FR_FN, FR_MU, FR_SLID, FR_NX, FR_FT, FR_GN, FR_OB, N_FR = 0, 1, 2, 3, 6, 9, 12, 13
 PHASE_ALL, PHASE_BEGIN, PHASE_ITERATE, PHASE_END = 0, 1, 2, 3
 
