@@ -116,7 +116,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         _reparent(spec, spec.body(body_name(0, n)), spec.body(world.gripper_body(tree_pin)), p[0])
 
     geom = world.cable_geom(scene, self_collision=self_collision)
-    joints.stiffen_obstacle_contacts(spec, scene, timestep)
+    world.stiffen_obstacle_contacts(spec, scene, timestep)
     options = joints.ball_options(scene, timestep)
     # The composite computes its frames from single-precision vertices; put in exact ones of the same convention
     # (twist-free, x along each segment; only the root's roll about its axis differs, which nothing depends on).

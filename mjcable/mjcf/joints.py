@@ -39,9 +39,10 @@ Mapping from the physical cable:
   A free root is three slide joints and a ball joint (:func:`add_root_joints`) so that its rotation carries the
   same armature and damping (a free joint's armature would add massless inertia to its translations);
 * contacts: ``world.cable_geom`` on every capsule; neighbouring capsules never collide (parent and child bodies,
-  and explicit excludes). The obstacles get a stiff contact time constant of ``CONTACT_SOLREF_STEPS`` physics steps
-  (:func:`stiffen_obstacle_contacts`): with MuJoCo's default 20 ms, the tension of the inextensible chain draping
-  over the ``drape`` peg presses it 3 cm into the 3 cm peg and pulls it through;
+  and explicit excludes). The obstacles get a stiff contact time constant of
+  ``world.CONTACT_SOLREF_STEPS`` physics steps (:func:`mjcable.mjcf.world.stiffen_obstacle_contacts`): with
+  MuJoCo's default 20 ms, the tension of the inextensible chain draping over the ``drape`` peg presses it 3 cm
+  into the 3 cm peg and pulls it through;
 * cost: a serial chain's joint-space mass matrix is dense, so a step costs O(n³) (reduced coordinates);
   :func:`jacobian` picks the faster constraint Jacobian layout.
 
@@ -95,7 +96,6 @@ __all__ = [
     "add_root_joints",
     "joint_stiffness",
     "segment_viscosity",
-    "stiffen_obstacle_contacts",
     "jacobian",
     "integrator",
     "joint_armature",
@@ -108,13 +108,11 @@ __all__ = [
     "STABLE_OMEGA_H",
     "WHIP_ARMATURE",
     "WHIP_RELAXATION_STEPS",
-    "CONTACT_SOLREF_STEPS",
 ]
 
 STABLE_OMEGA_H = 1.0  # ω·h of the fastest joint-spring mode the armature allows (semi-implicit Euler's limit is 2)
 WHIP_ARMATURE = 10.0  # α of the ball-joint armature α·(m/n)·l₀² that tames the free-end whip
 WHIP_RELAXATION_STEPS = 20.0  # physics steps in which ball-joint damping relaxes the armature's relative spin
-CONTACT_SOLREF_STEPS = 2.0  # obstacle contact time constant in physics steps (MuJoCo's stable minimum)
 _PARALLEL_EPS = 1e-12  # |sin| below which two directions count as (anti)parallel
 
 
@@ -217,13 +215,6 @@ def jacobian(scene: Scene) -> int:
     dense, and its pin equalities reach every dof: about twice as fast), MuJoCo's automatic choice (sparse for long
     chains) with contacts, where the Newton solver refactors per iteration (about twice as fast at 100 segments)."""
     return mujoco.mjtJacobian.mjJAC_AUTO if scene.obstacles else mujoco.mjtJacobian.mjJAC_DENSE
-
-
-def stiffen_obstacle_contacts(spec: mujoco.MjSpec, scene: Scene, timestep: float) -> None:
-    """Give the scene's obstacles (whose contact parameters take precedence) the contact time constant
-    ``CONTACT_SOLREF_STEPS`` physics steps."""
-    for i in range(len(scene.obstacles)):
-        spec.geom(f"obstacle{i}").solref = [CONTACT_SOLREF_STEPS * timestep, 1.0]
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -360,7 +351,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
     spec.option.viscosity = segment_viscosity(scene)
     spec.option.integrator = integrator(scene, timestep)
     spec.option.jacobian = jacobian(scene)
-    stiffen_obstacle_contacts(spec, scene, timestep)
+    world.stiffen_obstacle_contacts(spec, scene, timestep)
 
     add_anchors(spec, scene)
     kind, tree_pin = root_joint(scene)

@@ -16,7 +16,10 @@ Mapping from the physical cable:
   k₁ + k₂ < m / (n h²) with h MuJoCo's timestep. We use ``k₁ + k₂ = STABILITY_FRACTION · m / (n h²)``: an
   inextensible cable (``stretch_stiffness=None``) gets the largest k₁ the rule allows; a stiffer E·A (or E·I) is
   capped there with a warning. The static strain under tension T is then T / (k₁ l₀) ∝ h², which is why the model
-  defaults to 10 MuJoCo steps per ``dt``.
+  defaults to 10 MuJoCo steps per ``dt``;
+* contacts: sphere geoms of the cable radius; the obstacles get a stiff contact time constant
+  (:func:`mjcable.mjcf.world.stiffen_obstacle_contacts`), without which the spheres sink through a thin plate and
+  chatter as they slide.
 """
 
 from __future__ import annotations
@@ -111,6 +114,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
     if self_collision:
         for i in range(n - 1):
             spec.add_exclude(bodyname1=f"cable{i}", bodyname2=f"cable{i + 1}")
+    world.stiffen_obstacle_contacts(spec, scene, timestep)
     return snap.snap_spec(spec)
 
 
