@@ -198,20 +198,21 @@ def kinetic_energy(positions, previous, dt: float, masses) -> float:
     return float(0.5 * np.dot(np.asarray(masses, dtype=np.float64), v2))
 
 
-def potential_energy(positions, masses) -> float:
-    """Gravitational potential energy in joules, m g z summed (zero at z = 0)."""
+def potential_energy(positions, masses, *, gravity=GRAVITY) -> float:
+    """Gravitational potential energy in joules, −Σ mᵢ g·xᵢ (zero at the origin; ``gravity`` (3,) m/s², a scene's
+    :attr:`~mjcable.scene.Scene.gravity`)."""
     x = _points("positions", positions)
-    return float(-np.dot(np.asarray(masses, dtype=np.float64), x @ GRAVITY))
+    return float(-np.dot(np.asarray(masses, dtype=np.float64), x @ np.asarray(gravity, dtype=np.float64)))
 
 
-def energy(positions, previous: Optional[np.ndarray], dt: float, masses) -> float:
+def energy(positions, previous: Optional[np.ndarray], dt: float, masses, *, gravity=GRAVITY) -> float:
     """Kinetic plus gravitational energy in joules (kinetic energy 0 when ``previous`` is ``None``).
 
     Elastic energy is left out on purpose: it is model-specific, small for a near-inextensible cable, and a
     diverging simulation shows up in the kinetic term.
     """
     kinetic = 0.0 if previous is None else kinetic_energy(positions, previous, dt, masses)
-    return kinetic + potential_energy(positions, masses)
+    return kinetic + potential_energy(positions, masses, gravity=gravity)
 
 
 

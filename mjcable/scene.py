@@ -35,10 +35,12 @@ __all__ = [
     "Scene",
     "MAX_SEGMENTS",
     "START_CONTACT_TOLERANCE",
+    "BODY_PIN_TOLERANCE",
 ]
 
 GRAVITY = np.array([0.0, 0.0, -9.81])  # m/s²
-PIN_KINDS = ("world", "gripper", "socket")
+PIN_KINDS = ("world", "gripper", "socket", "body")
+BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
 # The most segments a cable may have. The start state is resampled at construction (about 4 s for 10⁵ segments on
 # one core, linear in n) and its equal chords hold to n·ε·|x| (1e-11 m, 1e-6 of a chord, for a 1 m cable of 10⁵
 # segments): beyond that resampling is slow and its round-off starts to show as strain. No model is practical
@@ -174,14 +176,21 @@ class Pin:
     Args:
       index: particle index; negative values count from the end (``Pin(-1)`` is the last particle).
       kind: ``"world"`` (fixed at its start position, free to rotate), ``"gripper"`` (attached to a mocap body moved
-        with :meth:`mjcable.Simulator.move_gripper`) or ``"socket"`` (fixed until the pin's force exceeds
-        ``release_force``, then released for good).
-      clamp: also hold the cable's tangent at the pin (a cantilever root).
+        with :meth:`mjcable.Simulator.move_gripper`), ``"socket"`` (fixed until the pin's force exceeds
+        ``release_force``, then released for good) or ``"body"`` (held at the point ``offset`` fixed in the frame
+        of the scene world's body ``body``, which then feels the cable: see :class:`Scene`).
+      body: the world body of a ``"body"`` pin.
+      offset: ``(3,)`` m, the held point in ``body``'s frame; only for ``kind="body"``. At the start it must lie
+        within :data:`BODY_PIN_TOLERANCE` of the pinned particle.
+      clamp: also hold the cable's tangent at the pin (a cantilever root); a body clamp holds the direction the
+        tangent has at the start, expressed in the body's frame.
       release_force: force in newtons above which a socket lets go (> 0); only for ``kind="socket"``.
     """
 
     index: int
     kind: str = "world"
+    body: Optional[str] = dataclasses.field(default=None, kw_only=True)
+    offset: Vec3 = dataclasses.field(default=(0.0, 0.0, 0.0), kw_only=True)
     clamp: bool = dataclasses.field(default=False, kw_only=True)
     release_force: Optional[float] = dataclasses.field(default=None, kw_only=True)
 
@@ -189,6 +198,17 @@ class Pin:
         _set(self, "index", _validate.integer("index", self.index))
         _validate.choice("kind", self.kind, PIN_KINDS)
         _set(self, "clamp", _validate.boolean("clamp", self.clamp))
+        _set(self, "offset", _validate.vec3("offset", self.offset, unit="m"))
+        if self.kind == "body":
+            if not isinstance(self.body, str) or not self.body:
+                raise ValueError(f"body is required for kind='body': the name of a body of the scene's world, "
+                                 f"got {self.body!r}")
+        else:
+            if self.body is not None:
+                raise ValueError(f"body applies only to kind='body', got body={self.body!r} for kind={self.kind!r}")
+            if any(self.offset):
+                raise ValueError(f"offset applies only to kind='body', got offset={self.offset!r} for "
+                                 f"kind={self.kind!r}")
         if self.kind == "socket":
             if self.release_force is None:
                 raise ValueError("release_force is required for a socket pin: the force in N above which it lets go")
@@ -281,16 +301,25 @@ class Scene:
       obstacles: a sequence of static obstacles; the cable's start (its particles, grown by its radius) must lie
         outside every one of them, up to :data:`START_CONTACT_TOLERANCE` (lying on a surface is fine).
       name: optional label (the built-in scenes set it).
+      world: the user's MuJoCo world around the cable: an MJCF path (``str`` or ``os.PathLike``; relative asset
+        paths resolve against its folder) or a ``mujoco.MjSpec`` (copied, never mutated); loaded once into a
+        :class:`mjcable.user_world.World`. Its gravity is the scene's; every model builds its cable into it, keeping
+        the user's names, joint, actuator and sensor order, keyframes and options (see :mod:`mjcable.user_world`).
+        ``None``: only the listed obstacles.
+      keyframe: the world's keyframe the simulation starts from (``None``: its default pose); only with ``world``.
 
     Raises:
-      ValueError: a bad pin or obstacle sequence, a pin out of range or two on one particle, or a cable that starts
-        inside an obstacle (naming the obstacle, the particle and the depth).
+      ValueError: a bad pin or obstacle sequence, a pin out of range or two on one particle, a cable that starts
+        inside an obstacle (naming the obstacle, the particle and the depth), an unreadable world, an unknown
+        keyframe or body, or a body pin whose point starts more than :data:`BODY_PIN_TOLERANCE` from its particle.
     """
 
     cable: CableSpec
     pins: tuple = ()
     obstacles: tuple = ()
     name: str = dataclasses.field(default="scene", kw_only=True)
+    world: object = dataclasses.field(default=None, kw_only=True)
+    keyframe: Optional[str] = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self):
         if not isinstance(self.cable, CableSpec):
@@ -313,6 +342,38 @@ class Scene:
         _set(self, "obstacles", obstacles)
         if not isinstance(self.name, str):
             raise ValueError(f"name must be a str, got {self.name!r}")
+        if self.world is None:
+            if self.keyframe is not None:
+                raise ValueError(f"keyframe applies only to a scene with a world, got keyframe={self.keyframe!r}")
+            body_pins = [k for k, pin in enumerate(pins) if pin.kind == "body"]
+            if body_pins:
+                k = body_pins[0]
+                raise ValueError(f"pins[{k}] holds body {pins[k].body!r}, but the scene has no world; give "
+                                 f"Scene(..., world=MJCF path or MjSpec)")
+        else:
+            from mjcable import user_world  # scene.py is imported by everything; the world module only here
+
+            _set(self, "world", user_world.load(self.world, keyframe=self.keyframe))
+            self._check_body_pins()
+
+    def _check_body_pins(self) -> None:
+        p = self.cable.particles
+        for k, pin in enumerate(self.pins):
+            if pin.kind != "body":
+                continue
+            point = self.world.body_point(pin.body, pin.offset) if pin.body else None
+            i = self.pin_particle(k)
+            miss = float(np.linalg.norm(point - p[i]))
+            if miss > BODY_PIN_TOLERANCE:
+                raise ValueError(
+                    f"pins[{k}]: the point offset={pin.offset} of body {pin.body!r} starts at "
+                    f"{np.round(point, 6).tolist()}, {miss:.4g} m from particle {i} at {np.round(p[i], 6).tolist()} "
+                    f"(allowed: {BODY_PIN_TOLERANCE:g} m); move the cable's end or change the offset")
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """``(3,)`` m/s²: the world's ``<option gravity>``, or :data:`GRAVITY` without a world."""
+        return GRAVITY.copy() if self.world is None else self.world.gravity.copy()
 
     def pin_particle(self, k: int) -> int:
         """The particle index (non-negative) held by ``pins[k]``."""

@@ -40,11 +40,14 @@ _CONNECT_ROWS = 3  # a connect equality constrains three position components
 def spec_builder(generate: Callable[..., mujoco.MjSpec]) -> Callable[[Scene, NativeSettings, float], mujoco.MjSpec]:
     """The catalogue's builder ``(scene, settings, dt) -> MjSpec`` for a native generator
     ``generate(scene, *, timestep, self_collision)``: MuJoCo steps at ``dt / substeps``, and a scene where nothing
-    can touch skips MuJoCo's collision pipeline altogether."""
+    can touch skips MuJoCo's collision pipeline altogether. In a user world the cable goes into the user's spec
+    (:func:`mjcable.mjcf.world.finish`)."""
 
     def build(scene: Scene, settings: NativeSettings, dt: float) -> mujoco.MjSpec:
-        spec = generate(scene, timestep=dt / settings.substeps, self_collision=settings.self_collision)
-        if not scene.obstacles and not settings.self_collision:
+        with world.user_names(scene):
+            spec = world.finish(generate(scene, timestep=dt / settings.substeps,
+                                         self_collision=settings.self_collision), scene)
+        if not scene.obstacles and scene.world is None and not settings.self_collision:
             spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
         return spec
 

@@ -17,6 +17,7 @@ from typing import Optional
 import mujoco
 import numpy as np
 
+from mjcable.backends.host import Host
 from mjcable.mjcf import proxy, world
 from mjcable.scene import Scene
 from mjcable.solvers import kernels, query_kernels
@@ -32,7 +33,9 @@ _NON_FINITE = "non-finite particle state (NaN or inf) in the particle solver"
 
 def proxy_builder(scene: Scene, settings: ParticleSettings, dt: float) -> mujoco.MjSpec:
     """The catalogue's builder for a particle model: the proxy spec (:func:`mjcable.mjcf.proxy.build`)."""
-    return proxy.build(scene, dt=dt, contact_margin=settings.contact_margin)
+    h = dt / settings.substeps if scene.world is not None else dt  # a user world steps in lock step, per substep
+    with world.user_names(scene):
+        return world.finish(proxy.build(scene, dt=h, contact_margin=settings.contact_margin), scene)
 
 
 def _obstacle_bounds(obstacles: Optional[ObstacleContacts]) -> tuple:
@@ -95,8 +98,12 @@ class ParticleBackend:
         first = int(self._sites[0])
         contiguous = np.array_equal(self._sites, np.arange(first, first + n_particles))
         self._site_pos = self.mj_data.site_xpos[first:first + n_particles] if contiguous else None
-        mujoco.mj_kinematics(m, self.mj_data)
-        self._obstacles = ObstacleContacts(scene, m, self.mj_data, self._segment_geoms) if scene.obstacles else None
+        self._key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, world.START_KEY)
+        self._host = Host(scene, m, self.mj_data, self.h) if scene.world is not None else None
+        self._start_pose()
+        ours = slice(0 if scene.world is None else scene.world.model.npair, m.npair)
+        self._obstacles = ObstacleContacts(scene, m, self.mj_data, self._segment_geoms, ours) if m.npair > ours.start \
+            else None
         self._self_pair = np.zeros((_SELF_CONTACT_CAPACITY * n, 2), dtype=np.int64)
         self._self_geo = np.zeros((_SELF_CONTACT_CAPACITY * n, 5))
         self._gravity = float(np.linalg.norm(self.mj_model.opt.gravity))  # m/s²
@@ -111,17 +118,29 @@ class ParticleBackend:
         self.timing = {"query": 0.0, "solve": 0.0, "sync": 0.0}
         self.reset()
 
+    def _start_pose(self) -> None:
+        """MuJoCo's data at the start: the model's start keyframe (a user world's start) or its default pose."""
+        m, d = self.mj_model, self.mj_data
+        if self._key >= 0:
+            mujoco.mj_resetDataKeyframe(m, d, self._key)
+        else:
+            mujoco.mj_resetData(m, d)
+        mujoco.mj_kinematics(m, d)
+
     @property
     def runs_steps(self) -> bool:
         """Whether :meth:`run` can take the Simulator's steps: always, but with PBD's user constraints (projected
-        in Python between iterations) or with :attr:`compiled_steps` off."""
-        return self.compiled_steps and not self._user
+        in Python between iterations), in a user world (stepped by MuJoCo between substeps) or with
+        :attr:`compiled_steps` off."""
+        return self.compiled_steps and not self._user and self._host is None
 
     def reset(self) -> None:
         """Copy the start state back into the solver's arrays (in place), and the proxy back to its start pose."""
         for name, a in self.state._asdict().items():
             np.copyto(a, self._start[name])
-        mujoco.mj_resetData(self.mj_model, self.mj_data)
+        self._start_pose()
+        if self._host is not None:
+            self._host.reset(self.state)
         self._posed = False
         self.contacts = empty_contacts(shapes=None if self._obstacles is None else self._obstacles.shapes)
         self.released = set()
@@ -137,7 +156,14 @@ class ParticleBackend:
         t0 = time.perf_counter()
         self._find_contacts()
         t1 = time.perf_counter()
-        if self._user:
+        if self._host is not None:
+            if self._obstacles is not None:
+                self._obstacles.disable()
+            finite, released, warning = self._host.substeps(self.state, self.contacts, self.settings.substeps,
+                                                            self._user_iterations if self._user else None)
+            if warning:
+                return warning
+        elif self._user:
             finite, released = self._substeps_with_user_constraints()
         else:
             finite, released = kernels.run_substeps_flat(*self.state, *self.contacts, self.settings.substeps,
@@ -148,7 +174,8 @@ class ParticleBackend:
         if released:
             self.released.update(int(k) for k in np.flatnonzero(~S.pin_active))
         self._sync()
-        self.mj_data.time += self.dt
+        if self._host is None:  # a user world's mj_step keeps the time
+            self.mj_data.time += self.dt
         self.timing["query"] += t1 - t0
         self.timing["solve"] += t2 - t1
         self.timing["sync"] += time.perf_counter() - t2
@@ -234,6 +261,16 @@ class ParticleBackend:
                                          slam=np.zeros((count, 2)))
             self.last_self_contact_count = count
         self.contacts = contacts
+
+    def _user_iterations(self, sub: int) -> tuple:
+        """One substep ``sub`` (of one) with PBD user constraints projected after every iteration."""
+        S, C, s = self.state, self.contacts, self.settings
+        kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_BEGIN, 0)
+        for _ in range(s.iterations):
+            kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ITERATE, 0)
+            for constraint, idx in self._user:
+                constraint.project(S.x, S.w, idx, iteration_factor(constraint.factor, s.iterations))
+        return kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_END, 0)
 
     def _substeps_with_user_constraints(self) -> tuple:
         """The same substeps as :func:`kernels.run_substeps`, with PBD user constraints projected in Python after

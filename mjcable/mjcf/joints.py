@@ -124,12 +124,14 @@ def body_name(i: int) -> str:
 def root_pin(scene: Scene) -> Optional[int]:
     """Index into ``scene.pins`` of the pin that the kinematic tree realises at its root, or ``None``.
 
-    A world or gripper pin at either end of the cable (a socket is releasable, so never a root): grippers before
-    world pins, particle 0 before particle n. Holding a moving gripper at the tree's root, rather than with a
+    A world or gripper pin at either end of the cable (a socket is releasable, and a body pin must leave the user's
+    kinematic tree and joint order alone, so neither is ever a root): grippers before world pins, particle 0 before
+    particle n. Holding a moving gripper at the tree's root, rather than with a
     connect equality at a leaf, is what keeps the chain stable under a moving gripper (see the module docstring).
     """
     n = scene.cable.n_segments
-    ends = [k for k, pin in enumerate(scene.pins) if pin.kind != "socket" and scene.pin_particle(k) in (0, n)]
+    ends = [k for k, pin in enumerate(scene.pins)
+            if pin.kind in ("world", "gripper") and scene.pin_particle(k) in (0, n)]
     if not ends:
         return None
     return min(ends, key=lambda k: (scene.pins[k].kind != "gripper", scene.pin_particle(k) != 0))
@@ -291,7 +293,6 @@ def add_pin_equalities(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, sk
     gripper's mocap body); a clamp also connects the neighbouring particle to ``anchor{k}_clamp`` at its start
     position, in the same body. Equalities are named ``pin{k}`` and ``pin{k}_clamp``.
     """
-    p = scene.cable.particles
     for k, pin in enumerate(scene.pins):
         if k == skip:
             continue
@@ -300,13 +301,8 @@ def add_pin_equalities(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, sk
         world.add_connect(spec, world.pin_equality(k), world.particle_site(i), anchor, timestep=timestep)
         if pin.clamp:
             j = scene.clamp_neighbour(k)
-            if pin.kind == "gripper":
-                host, pos = spec.body(world.gripper_body(k)), p[j] - p[i]
-            else:
-                host, pos = spec.worldbody, p[j]
-            host.add_site(name=f"{anchor}_clamp", pos=pos)
-            world.add_connect(spec, world.pin_equality(k, clamp=True), world.particle_site(j), f"{anchor}_clamp",
-                              timestep=timestep)
+            world.add_connect(spec, world.pin_equality(k, clamp=True), world.particle_site(j),
+                              world.add_clamp_anchor(spec, scene, k), timestep=timestep)
 
 
 def root_joint(scene: Scene) -> tuple:

@@ -26,7 +26,7 @@ import numpy as np
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 
-__all__ = ["build", "segment_name", "PROXY_KINDS", "DEFAULT_MARGIN"]
+__all__ = ["build", "segment_name", "user_collision_geoms", "PROXY_KINDS", "DEFAULT_MARGIN"]
 
 DEFAULT_MARGIN = 0.005  # m, the pairs' margin before the solver first sets it
 PROXY_KINDS = ("pairs", "free")  # "free" exists for the measurement above; the solvers use "pairs"
@@ -72,16 +72,42 @@ def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, pr
             body.add_freejoint()
         body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[cable.radius, half, 0.0],
                       margin=contact_margin, **geom)
+        if scene.world is not None:  # only our pairs: the host's mj_step must never see a capsule
+            body.geoms[-1].contype = body.geoms[-1].conaffinity = 0
         body.add_site(name=world.particle_site(i), pos=[0.0, 0.0, -half])
         if i == n - 1:
             body.add_site(name=world.particle_site(n), pos=[0.0, 0.0, half])
     if proxy == "pairs":
-        for k in range(len(scene.obstacles)):
+        others = user_collision_geoms(spec, scene) + [(f"obstacle{k}", "") for k in range(len(scene.obstacles))]
+        for other, body in others:
+            near = world.pinned_segments(scene, body)
             for i in range(n):
-                spec.add_pair(geomname1=f"obstacle{k}", geomname2=segment_name(i), condim=3, margin=contact_margin)
-    for k in range(len(scene.pins)):
+                if i not in near:
+                    spec.add_pair(geomname1=other, geomname2=segment_name(i), condim=3, margin=contact_margin)
+    for k, pin in enumerate(scene.pins):
         world.add_anchor(spec, scene, k)
+        if pin.kind == "body" and pin.clamp:
+            world.add_clamp_anchor(spec, scene, k)
     return snap.snap_spec(spec)
+
+
+def user_collision_geoms(spec: mujoco.MjSpec, scene: Scene) -> list:
+    """``(name, body name)`` of the user world's geoms in ``spec`` that collide with the cable under MuJoCo's own filter
+    (``contype`` of one against ``conaffinity`` of the other, either way round, with the cable's bits from
+    :func:`mjcable.mjcf.world.cable_geom`). The proxy pairs the cable with each by name, so an unnamed one is
+    named ``world_geom{j}`` here (j counts the spec's geoms)."""
+    if scene.world is None:
+        return []
+    cable = world.cable_geom(scene)
+    ours = {f"obstacle{k}" for k in range(len(scene.obstacles))}
+    names = []
+    for j, g in enumerate(spec.geoms):
+        if g.name in ours or not (g.contype & cable["conaffinity"] or cable["contype"] & g.conaffinity):
+            continue
+        if not g.name:
+            g.name = f"world_geom{j}"
+        names.append((g.name, g.parent.name))
+    return names
 
 
 def _z_to(d: np.ndarray) -> np.ndarray:

@@ -79,7 +79,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         elif pin.kind == "world":
             for i in held:
                 parent[i] = spec.worldbody
-        else:  # socket: free particles held by releasable equalities
+        else:  # socket or body: free particles held by (releasable) equalities
             world.add_anchor(spec, scene, k)
     for i in range(n):
         host = parent.get(i, spec.worldbody)
@@ -91,15 +91,14 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[cable.radius, 0, 0], mass=masses[i], **geom)
         body.add_site(name=world.particle_site(i))
     for k, pin in enumerate(scene.pins):
-        if pin.kind != "socket":
+        if pin.kind not in ("socket", "body"):
             continue
         world.add_connect(spec, world.pin_equality(k), world.particle_site(scene.pin_particle(k)),
                           world.anchor_site(k), timestep=timestep)
         if pin.clamp:
             j = scene.clamp_neighbour(k)
-            spec.worldbody.add_site(name=f"{world.anchor_site(k)}_clamp", pos=p[j])
             world.add_connect(spec, world.pin_equality(k, clamp=True), world.particle_site(j),
-                              f"{world.anchor_site(k)}_clamp", timestep=timestep)
+                              world.add_clamp_anchor(spec, scene, k), timestep=timestep)
 
     k_stretch, k_bend = spring_stiffness(scene, timestep)
     l0 = cable.segment_length

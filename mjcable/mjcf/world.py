@@ -7,11 +7,20 @@ identical and videos compare like with like. Naming conventions used across :mod
   them in one vectorised gather);
 * body ``gripper{k}`` (mocap) with site ``anchor{k}``: the gripper of ``scene.pins[k]``;
 * site ``anchor{k}`` in the world body: the fixed end of a world or socket pin ``k``;
+* site ``anchor{k}`` in the user world's body ``pin.body``: the held point of a body pin ``k``;
 * equality ``pin{k}`` (and ``pin{k}_clamp``): the constraint that realises pin ``k`` where a model needs one.
+
+With a user world (``Scene(world=...)``, :mod:`mjcable.user_world`) :func:`new_spec` starts from a copy of the
+user's spec: its options (timestep aside), assets, lights and cameras are kept, and only what the cable needs is
+added after the user's elements (materials, the scene's own obstacles, an ``overview`` camera if the world has
+none). :func:`finish` then gives the model the keyframe :data:`START_KEY` holding the world's start (its
+``keyframe`` or default pose) with the cable's start appended, and :func:`user_names` turns MuJoCo's "repeated
+name" into a ``ValueError`` that says which of the user's names clashes with the cable's.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 from typing import Optional
 
@@ -24,9 +33,13 @@ from mjcable.scene import GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
 
 __all__ = [
     "new_spec",
+    "finish",
+    "user_names",
     "cable_geom",
     "add_anchor",
     "add_connect",
+    "add_clamp_anchor",
+    "pinned_segments",
     "particle_site",
     "anchor_site",
     "gripper_body",
@@ -48,7 +61,8 @@ _FLOOR_HALF_SIZE = 5.0  # m, rendered extent of a Floor plane
 _CAMERA_FOVY = 45.0  # degrees
 _CAMERA_MARGIN = 1.35  # frame the cable's bounding box with this much room
 CONTACT_SOLREF_STEPS = 2.0  # stiff obstacle contact time constant in physics steps (MuJoCo's stable minimum)
-_PIN_SOLREF_STEPS = 2.0  # equality time constant in physics steps (MuJoCo's stable minimum)
+_PIN_SOLREF_STEPS = 2.0
+_PIN_EXCLUDE_REACH = 2  # particles either side of a body pin whose bodies never touch the pin's body  # equality time constant in physics steps (MuJoCo's stable minimum)
 _IMPRATIO = 10.0  # frictional-to-normal impedance ratio (MuJoCo's remedy for contact slip)
 PIN_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 
@@ -78,6 +92,10 @@ def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -
       base_xml: MJCF to start from (for models that MuJoCo only generates from XML, such as ``composite`` and
         ``flexcomp``; ``MjSpec.attach`` would silently drop a flex).
     """
+    if scene.world is not None:
+        if base_xml:
+            raise ValueError("this model is generated from MJCF text and cannot build into a user world yet")
+        return _user_spec(scene, timestep)
     spec = mujoco.MjSpec.from_string(base_xml) if base_xml else mujoco.MjSpec()
     spec.modelname = f"mjcable_{scene.name}"
     spec.option.timestep = timestep
@@ -111,6 +129,100 @@ def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -
         _add_obstacle(world, scene, i, ob)
     _add_camera(world, box)
     return spec
+
+
+def _user_spec(scene: Scene, timestep: float) -> mujoco.MjSpec:
+    """A copy of the user's world with what every model needs added: the timestep, materials, obstacles and an
+    ``overview`` camera (only if the world has none)."""
+    spec = scene.world.spec()
+    spec.option.timestep = timestep
+    spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 1280)
+    spec.visual.global_.offheight = max(spec.visual.global_.offheight, 720)
+    materials = {m.name for m in spec.materials}
+    with user_names(scene):
+        if any(isinstance(ob, Floor) for ob in scene.obstacles) and "grid" not in materials:
+            spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                             builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.82, 0.84, 0.86],
+                             rgb2=[0.72, 0.74, 0.77], width=300, height=300)
+            grid = spec.add_material(name="grid", texrepeat=[8, 8], reflectance=0.05)
+            grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+        for name, rgba in (("obstacle", [0.62, 0.5, 0.38, 1.0]), ("cable", [0.85, 0.25, 0.12, 1.0]),
+                           ("gripper", [0.2, 0.4, 0.9, 0.6])):
+            if name not in materials:
+                spec.add_material(name=name, rgba=rgba)
+        for i, ob in enumerate(scene.obstacles):
+            _add_obstacle(spec.worldbody, scene, i, ob)
+        if CAMERA not in {c.name for c in spec.cameras}:
+            _add_camera(spec.worldbody, _cable_box(scene))
+    return spec
+
+
+@contextlib.contextmanager
+def user_names(scene: Scene):
+    """Inside: MuJoCo's "repeated name" from adding the cable's elements to a user world becomes a ``ValueError``
+    naming the clash (MjSpec raises it as soon as a second element of a name is added)."""
+    try:
+        yield
+    except ValueError as error:
+        if scene.world is None or "repeated name" not in str(error):
+            raise
+        raise ValueError(f"world: the cable needs an element your world already has ({error}); mjcable names "
+                         f"its elements cable*, particle*, segment*, anchor*, gripper*, pin*, obstacle*, spring*, "
+                         f"{CAMERA!r} and {START_KEY!r}: rename yours") from None
+
+
+def finish(spec: mujoco.MjSpec, scene: Scene) -> mujoco.MjSpec:
+    """In a user world, the keyframe :data:`START_KEY` that a Simulator resets to: the world's start (its
+    ``keyframe`` or default pose: qpos, qvel, act, ctrl and its mocap bodies) followed by the cable's start (the
+    model's own start key if it made one, else the cable's default pose). The user's keyframes need nothing:
+    MuJoCo pads a keyframe's qpos with the default pose of the joints added after them. Returns ``spec``."""
+    if scene.world is None:
+        return spec
+    _exclude_pinned_bodies(spec, scene)
+    start = scene.world.start_state()
+    ours = next((k for k in spec.keys if k.name == START_KEY), None)
+    if ours is None:
+        with user_names(scene):
+            spec.add_key(name=START_KEY, qpos=start["qpos"], qvel=start["qvel"], act=start["act"],
+                         ctrl=start["ctrl"], mpos=start["mpos"].ravel(), mquat=start["mquat"].ravel())
+        return spec
+    ours.qpos = np.concatenate([start["qpos"], np.asarray(ours.qpos)])
+    ours.qvel = np.concatenate([start["qvel"], np.asarray(ours.qvel)]) if len(ours.qvel) else start["qvel"]
+    ours.act, ours.ctrl = start["act"], start["ctrl"]
+    if len(ours.mpos) or len(start["mpos"]):
+        ours.mpos = np.concatenate([start["mpos"].ravel(), np.asarray(ours.mpos)])
+        ours.mquat = np.concatenate([start["mquat"].ravel(), np.asarray(ours.mquat)])
+    return spec
+
+
+def pinned_segments(scene: Scene, body: str) -> set:
+    """The cable segments (i between particles i and i + 1) that never touch user body ``body``: those within
+    ``_PIN_EXCLUDE_REACH`` particles of a body pin on it (the cable's end starts touching the body it is fastened
+    to)."""
+    near = set()
+    n = scene.cable.n_segments
+    for k, pin in enumerate(scene.pins):
+        if pin.kind == "body" and pin.body == body:
+            i = scene.pin_particle(k)
+            near.update(range(max(i - _PIN_EXCLUDE_REACH, 0), min(i + _PIN_EXCLUDE_REACH, n)))
+    return near
+
+
+def _exclude_pinned_bodies(spec: mujoco.MjSpec, scene: Scene) -> None:
+    """No contacts between a body pin's body and the cable bodies holding the particles within
+    ``_PIN_EXCLUDE_REACH`` of its particle: the cable's end starts touching the body it is fastened to."""
+    n = scene.cable.n_particles
+    pairs = set()
+    for k, pin in enumerate(scene.pins):
+        if pin.kind != "body":
+            continue
+        i = scene.pin_particle(k)
+        for j in range(max(i - _PIN_EXCLUDE_REACH, 0), min(i + _PIN_EXCLUDE_REACH, n - 1) + 1):
+            site = spec.site(particle_site(j))
+            body = site.parent.name if site is not None else ""
+            if body and body != pin.body and (pin.body, body) not in pairs:
+                pairs.add((pin.body, body))
+                spec.add_exclude(bodyname1=pin.body, bodyname2=body)
 
 
 def stiffen_obstacle_contacts(spec: mujoco.MjSpec, scene: Scene, timestep: float) -> None:
@@ -194,17 +306,38 @@ def cable_geom(scene: Scene, *, self_collision: bool = False) -> dict:
 
 def add_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position=None) -> str:
     """Create the fixed side of pin ``k`` at ``position`` (default: its particle's start position) and return the
-    name of its site: a world site for world and socket pins, a mocap body ``gripper{k}`` for gripper pins."""
+    name of its site: a world site for world and socket pins, a mocap body ``gripper{k}`` for gripper pins, a site
+    at the pin's offset in the user's body for body pins (``position`` ignored)."""
     pin = scene.pins[k]
     pos = scene.cable.particles[scene.pin_particle(k)] if position is None else np.asarray(position)
     name = anchor_site(k)
-    if pin.kind == "gripper":
+    if pin.kind == "body":  # the held point, fixed in the user's body
+        spec.body(pin.body).add_site(name=name, pos=pin.offset)
+    elif pin.kind == "gripper":
         body = spec.worldbody.add_body(name=gripper_body(k), pos=pos, mocap=True)
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[2.5 * scene.cable.radius, 0, 0], contype=0,
                       conaffinity=0, density=0.0, material="gripper", group=1)  # visual only: no mass, no contacts
         body.add_site(name=name)
     else:
         spec.worldbody.add_site(name=name, pos=pos)
+    return name
+
+
+def add_clamp_anchor(spec: mujoco.MjSpec, scene: Scene, k: int) -> str:
+    """The site ``anchor{k}_clamp`` that holds the clamp neighbour of pin ``k`` at its start position, in the same
+    body as ``anchor{k}`` (:func:`add_anchor`: the world, the gripper's mocap body, or the user's body, where it
+    keeps the tangent's start direction in that body's frame). Returns its name."""
+    pin = scene.pins[k]
+    p = scene.cable.particles
+    i, j = scene.pin_particle(k), scene.clamp_neighbour(k)
+    name = f"{anchor_site(k)}_clamp"
+    if pin.kind == "body":
+        _, rot = scene.world.body_pose(pin.body)
+        spec.body(pin.body).add_site(name=name, pos=np.asarray(pin.offset) + rot.T @ (p[j] - p[i]))
+    elif pin.kind == "gripper":
+        spec.body(gripper_body(k)).add_site(name=name, pos=p[j] - p[i])
+    else:
+        spec.worldbody.add_site(name=name, pos=p[j])
     return name
 
 

@@ -23,6 +23,8 @@ from mjcable.solvers import kernels, query_kernels
 
 __all__ = ["ObstacleContacts"]
 
+_PAIRS_OFF = -1e10  # m: a pair margin no pair of geoms is closer than
+
 
 class ObstacleContacts:
     """Queries cable-obstacle contacts from the compiled proxy model.
@@ -31,38 +33,70 @@ class ObstacleContacts:
       scene: the scene.
       mj_model, mj_data: the compiled proxy (``mjcable.mjcf.proxy``) and its data, kinematics current.
       segment_geoms: ``(n_segments,)`` geom ids of the proxy capsules.
+      pairs: the proxy's pairs (ids) of the cable with obstacles: all of them, but the user world's own pairs.
+
+    Attributes:
+      friction: ``(ngeom, 3)`` the model's geom friction with each obstacle's sliding μ replaced by a cable
+        contact's: the obstacle's when its priority is higher than the cable's (the scene's own obstacles), else
+        the larger of the cable's and the geom's (MuJoCo's rule for equal priorities).
     """
 
-    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, segment_geoms: np.ndarray):
+    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, segment_geoms: np.ndarray,
+                 pairs: slice = slice(None)):
         self.mj_model, self.mj_data = mj_model, mj_data
         self.radius = scene.cable.radius
-        self.obstacle_geoms = np.array([mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_GEOM, f"obstacle{k}")
-                                        for k in range(len(scene.obstacles))], dtype=np.int64)
+        self.pairs = pairs
+        #: the geoms the cable is paired with: the scene's obstacles and, in a user world, its collidable geoms
+        self.obstacle_geoms = np.unique(mj_model.pair_geom1[pairs]).astype(np.int64)
         self.segment_of_geom = np.full(mj_model.ngeom, -1, dtype=np.int64)
         self.segment_of_geom[segment_geoms] = np.arange(len(segment_geoms))
         self.shape_of_geom = np.full(mj_model.ngeom, -1, dtype=np.int64)
         self.shape_of_geom[self.obstacle_geoms] = np.arange(len(self.obstacle_geoms))
-        #: (B, kernels.N_SH): each obstacle's MuJoCo type, size, world position and rotation (static)
-        self.shapes = np.zeros((len(self.obstacle_geoms), kernels.N_SH))
         g = self.obstacle_geoms
+        # Coulomb's μ of a cable contact: MuJoCo's rule, the higher priority geom's μ (the scene's obstacles have
+        # priority 1), the larger of the two for equal priorities
+        mu_cable = scene.cable.friction
+        self.friction = np.array(mj_model.geom_friction)
+        ours = mj_model.geom_priority[g] > 0
+        self.friction[g, 0] = np.where(ours, mj_model.geom_friction[g, 0],
+                                       np.maximum(mj_model.geom_friction[g, 0], mu_cable))
+        body = mj_model.geom_bodyid[g]
+        #: obstacles on bodies that move (their shapes' poses are refreshed by every query)
+        self._moving = g[(mj_model.body_weldid[body] != 0) | (mj_model.body_mocapid[body] >= 0)]
+        #: (B, kernels.N_SH): each obstacle's MuJoCo type, size, world position and rotation
+        self.shapes = np.zeros((len(g), kernels.N_SH))
         self.shapes[:, kernels.SH_TYPE] = mj_model.geom_type[g]
         self.shapes[:, kernels.SH_SIZE:kernels.SH_SIZE + 3] = mj_model.geom_size[g]
-        self.shapes[:, kernels.SH_POS:kernels.SH_POS + 3] = mj_data.geom_xpos[g]
-        self.shapes[:, kernels.SH_ROT:kernels.SH_ROT + 9] = mj_data.geom_xmat[g]
+        self._refresh_shapes(g)
         self._margin = None
-        # Static obstacles: world bounding boxes, planes as half-spaces (normal, point).
-        planes = mj_model.geom_type[self.obstacle_geoms] == mujoco.mjtGeom.mjGEOM_PLANE
-        self._plane_n = np.ascontiguousarray(mj_data.geom_xmat[self.obstacle_geoms[planes]].reshape(-1, 3, 3)[:, :, 2])
-        self._plane_p = np.ascontiguousarray(mj_data.geom_xpos[self.obstacle_geoms[planes]])
-        boxes = self.obstacle_geoms[~planes]
+        # Static obstacles: world bounding boxes, planes as half-spaces (normal, point); with a moving obstacle the
+        # bounds cover all space (every step queries).
+        planes = mj_model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE
+        self._plane_n = np.ascontiguousarray(mj_data.geom_xmat[g[planes]].reshape(-1, 3, 3)[:, :, 2])
+        self._plane_p = np.ascontiguousarray(mj_data.geom_xpos[g[planes]])
+        boxes = g[~planes]
         rot = mj_data.geom_xmat[boxes].reshape(-1, 3, 3)
         aabb = mj_model.geom_aabb[boxes]
         center = mj_data.geom_xpos[boxes] + np.einsum("kij,kj->ki", rot, aabb[:, :3])
         half = np.einsum("kij,kj->ki", np.abs(rot), aabb[:, 3:])
+        if len(self._moving):
+            half[:] = np.inf
         self._box_lo, self._box_hi = np.ascontiguousarray(center - half), np.ascontiguousarray(center + half)
         self._seg = np.zeros(0, dtype=np.int64)
         self._geo = np.zeros((0, 7))
         self._lam = np.zeros(0)
+
+    def disable(self) -> None:
+        """Switch the cable's pairs off (an impossible margin) so that a host ``mj_step`` never sees the proxy; the
+        next :meth:`query` switches them back on."""
+        self.mj_model.pair_margin[self.pairs] = _PAIRS_OFF
+        self._margin = None
+
+    def _refresh_shapes(self, geoms: np.ndarray) -> None:
+        d = self.mj_data
+        rows = self.shape_of_geom[geoms]
+        self.shapes[rows, kernels.SH_POS:kernels.SH_POS + 3] = d.geom_xpos[geoms]
+        self.shapes[rows, kernels.SH_ROT:kernels.SH_ROT + 9] = d.geom_xmat[geoms]
 
     @property
     def bounds(self) -> tuple:
@@ -83,8 +117,10 @@ class ObstacleContacts:
         """
         m, d = self.mj_model, self.mj_data
         if margin != self._margin:
-            m.pair_margin[:] = margin
+            m.pair_margin[self.pairs] = margin
             self._margin = margin
+        if len(self._moving):
+            self._refresh_shapes(self._moving)
         mujoco.mj_collision(m, d)
         ncon = d.ncon
         if ncon > len(self._seg):
@@ -95,6 +131,6 @@ class ObstacleContacts:
         if ncon:
             con = d.contact
             count = query_kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
-                                                       self.shape_of_geom, m.geom_friction, x, self.radius, self._seg,
+                                                       self.shape_of_geom, self.friction, x, self.radius, self._seg,
                                                        self._geo)
         return out._replace(seg=self._seg[:count], geo=self._geo[:count], lam=self._lam[:count], shapes=self.shapes)

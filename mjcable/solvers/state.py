@@ -14,7 +14,7 @@ from typing import Optional
 
 import numpy as np
 
-from mjcable.scene import GRAVITY, Scene
+from mjcable.scene import Scene
 from mjcable.solvers import kernels
 from mjcable.solvers.kernels import FP, IP
 from mjcable.solvers.settings import ParticleSettings
@@ -127,7 +127,7 @@ def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float)
         clamp_dir[kc] = _perpendiculars(axis / np.linalg.norm(axis))
     v = np.zeros_like(x)
     if rules.verlet_start:
-        v[w > 0] = -0.5 * GRAVITY * h
+        v[w > 0] = -0.5 * scene.gravity * h
     n = cable.n_segments
     l0 = cable.segment_length
     if settings.order == "direct" and rules.direct_bending:
@@ -139,7 +139,7 @@ def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float)
     fp = np.zeros(kernels.N_FP)
     fp[FP["h"]] = h
     fp[FP["damp"]] = math.exp(-cable.damping * h)
-    fp[[FP["gx"], FP["gy"], FP["gz"]]] = GRAVITY
+    fp[[FP["gx"], FP["gy"], FP["gz"]]] = scene.gravity
     fp[FP["alpha_s"]], fp[FP["alpha_b"]], fp[FP["alpha_c"]] = rules.alpha_stretch, rules.alpha_bend, rules.alpha_clamp
     fp[FP["k_s"]], fp[FP["k_b"]], fp[FP["k_c"]] = rules.k_stretch, rules.k_bend, rules.k_clamp
     fp[FP["inv_l0sq"]] = 1.0 / l0**2

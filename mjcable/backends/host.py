@@ -1,0 +1,158 @@
+"""A user's MuJoCo world as the particle solvers' host: lock-step stepping and two-way coupling through body pins.
+
+With ``Scene(world=...)`` the particle backend's ``mj_data`` is the user's world with the proxy capsules in it, and
+MuJoCo steps that world (robot, objects, actuators) with ``mj_step`` once per solver substep h = dt / substeps (the
+model's timestep is h). The proxy capsules take no part in those steps: they have no contact bits and their pairs
+are switched off (:meth:`~mjcable.solvers.contacts.ObstacleContacts.disable`) while the host steps.
+
+Coupling scheme of a body pin (particle p held at the point b(q) fixed in a body), once per substep:
+
+1. the body's inverse mass at the point along the cable, w_b = nᵀ J M⁻¹ Jᵀ n (J the point's translational
+   Jacobian, M the world's joint-space mass matrix, n the unit vector from p to its neighbour), from MuJoCo's
+   ``mj_jac`` and ``mj_solveM``;
+2. a trial ``mj_step`` of the world without the cable gives the point's free path b_free (state saved before and
+   restored after, ``mj_getState``/``mj_setState``, so the step is repeated exactly);
+3. the solver's substep treats p as a particle of inverse mass w_b predicted at b_free: the cable's constraints
+   move it by Δ = x_p − b_free. That displacement is what a constant force F = Δ / (w_b h²) does to the body in one
+   semi-implicit step, so the cable pulls the body with F + m_p g (m_p the particle's own lumped mass, which the
+   body carries), applied at the point (``xfrc_applied``: force and its moment about the body's centre of mass);
+4. the real ``mj_step`` with that force; the particle is put where the body point went, with the body point's
+   velocity. ``Simulator.pin_forces`` reports −(F + m_p g), the force holding the particle, as for other pins.
+
+The coupling is implicit in the body's inertia along the cable (a heavy box hanging from a light cable is held in
+one substep), and exact where J M⁻¹ Jᵀ is isotropic, e.g. a free body pinned at a point on a principal axis through
+its centre of mass, pulled along it. Its limits: the scalar w_b ignores how the body answers sideways to the
+cable and, in the world's own constraints (contacts, joint limits, other equalities), how it answers at all during
+the substep; what the body does instead shows up as the next substep's starting mismatch, which the particle then
+follows. With Gauss-Seidel orders, a mass ratio w_b / w_cable far below 1 needs iterations (or ``order="direct"``)
+to carry the body's weight without stretch, as any heavy end mass does.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Optional
+
+import mujoco
+import numpy as np
+
+from mjcable.mjcf import world
+from mjcable.scene import Scene
+from mjcable.solvers import kernels
+
+__all__ = ["Host"]
+
+_BAD = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL)
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+_RIGID = 1e-12  # 1/kg: a body point lighter to move than this is held fixed (a body welded to the world)
+
+
+class Host:
+    """Steps the user's world around a particle cable (see the module docstring).
+
+    Args:
+      scene: the scene (with a world).
+      mj_model, mj_data: the compiled proxy in the user's world; timestep h.
+      h: the solver's substep in seconds.
+    """
+
+    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, h: float):
+        self.m, self.d, self.h = mj_model, mj_data, h
+        self.gravity = scene.gravity
+        m = mj_model
+        pins = [k for k, pin in enumerate(scene.pins) if pin.kind == "body"]
+        self.pins = np.array(pins, dtype=np.int64)
+        self.particles = np.array([scene.pin_particle(k) for k in pins], dtype=np.int64)
+        self.neighbours = np.array([scene.clamp_neighbour(k) for k in pins], dtype=np.int64)
+        self.bodies = np.array([m.body(scene.pins[k].body).id for k in pins], dtype=np.int64)
+        self.sites = np.array([m.site(world.anchor_site(k)).id for k in pins], dtype=np.int64)
+        clamped = [k for k, pin in enumerate(scene.pins) if pin.clamp]
+        #: (row in the state's clamp arrays, body id, the clamp's two directions in the body's frame (2, 3))
+        self._clamps = [(clamped.index(k), int(self.bodies[j]), None) for j, k in enumerate(pins)
+                        if scene.pins[k].clamp]
+        self._saved = np.zeros(mujoco.mj_stateSize(m, _STATE))
+        self._jacp = np.zeros((3, m.nv))
+        self._force = np.zeros((len(pins), 3))
+
+    def reset(self, S: kernels.Chain) -> None:
+        """After the data's reset: the body pins' targets at their points, the clamps' directions in their bodies."""
+        mujoco.mj_forward(self.m, self.d)
+        points = self.d.site_xpos[self.sites]
+        S.pin_from[self.pins] = points
+        S.pin_to[self.pins] = points
+        self._clamps = [(row, b, self.d.xmat[b].reshape(3, 3).T @ S.clamp_dir[row].T) for row, b, _ in self._clamps]
+
+    def _inverse_masses(self, S: kernels.Chain, points: np.ndarray) -> np.ndarray:
+        """(P,) 1/kg: each body's inverse mass at its pin point along the cable (step 1 of the scheme)."""
+        m, d = self.m, self.d
+        out = np.zeros(len(self.pins))
+        for j in range(len(self.pins)):
+            mujoco.mj_jac(m, d, self._jacp, None, points[j], int(self.bodies[j]))
+            axis = S.x[self.neighbours[j]] - S.x[self.particles[j]]
+            axis /= max(float(np.linalg.norm(axis)), 1e-12)
+            jn = axis @ self._jacp
+            solved = np.zeros((1, m.nv))
+            mujoco.mj_solveM(m, d, solved, jn[None])
+            out[j] = float(jn @ solved[0])
+        return out
+
+    def substeps(self, S: kernels.Chain, C: kernels.Contacts, n: int,
+                 one_substep: Optional[Callable[[int], tuple]] = None) -> tuple:
+        """``n`` solver substeps, each with its host ``mj_step``. Grippers move linearly towards their targets as
+        in the plain path. Returns (finite, sockets released, a divergence reason from MuJoCo's warnings or None).
+        """
+        m, d, h = self.m, self.d, self.h
+        start_from, start_to = S.pin_from.copy(), S.pin_to.copy()
+        coupled = len(self.pins) > 0
+        finite, released = True, 0
+        for sub in range(n):
+            target = start_from + ((sub + 1.0) / n) * (start_to - start_from)
+            if coupled:
+                p0 = d.site_xpos[self.sites].copy()
+                arm = p0 - d.xipos[self.bodies]
+                w_b = self._inverse_masses(S, p0)
+                mujoco.mj_getState(m, d, self._saved, _STATE)
+                mujoco.mj_step(m, d)
+                mujoco.mj_kinematics(m, d)
+                free = d.site_xpos[self.sites].copy()
+                turned = [d.xmat[b].reshape(3, 3) @ local for _, b, local in self._clamps]
+                mujoco.mj_setState(m, d, self._saved, _STATE)
+                target[self.pins] = free
+                for (row, _, _), dirs in zip(self._clamps, turned):
+                    S.clamp_dir[row] = dirs.T
+                free_w = np.where(w_b > _RIGID, w_b, 0.0)
+                S.w[self.particles] = free_w
+            S.pin_to[:] = target
+            if one_substep is not None:
+                ok, count = one_substep(sub)
+            else:
+                ok, count = kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0)
+            finite = finite and ok
+            released += count
+            if coupled:
+                moving = free_w > 0.0
+                f = np.zeros_like(free)
+                f[moving] = (S.x[self.particles[moving]] - free[moving]) / (free_w[moving, None] * h * h)
+                f[moving] += S.mass[self.particles[moving], None] * self.gravity
+                f[~moving] = -S.pin_force[self.pins[~moving]]
+                S.pin_force[self.pins[moving]] = -f[moving]
+                applied = np.zeros((len(self.pins), 6))
+                applied[:, :3] = f
+                applied[:, 3:] = np.cross(arm, f)
+                np.add.at(d.xfrc_applied, self.bodies, applied)
+            mujoco.mj_step(m, d)
+            if coupled:
+                np.subtract.at(d.xfrc_applied, self.bodies, applied)
+            mujoco.mj_kinematics(m, d)
+            if coupled:
+                p1 = d.site_xpos[self.sites]
+                S.x[self.particles] = p1
+                S.v[self.particles] = (p1 - p0) / h
+            counts = d.warning.number
+            bad = [int(w) for w in _BAD if counts[w] > 0]
+            if bad:
+                counts[bad] = 0
+                return finite, released, f"MuJoCo's warning {mujoco.mjtWarning(bad[0]).name} in the user world"
+        S.pin_to[:] = start_to
+        if coupled:
+            S.pin_to[self.pins] = d.site_xpos[self.sites]
+        return finite, released, None
