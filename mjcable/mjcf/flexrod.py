@@ -1,13 +1,17 @@
-"""``flexrod``: the cable as a MuJoCo 1D flex, a discrete elastic rod (``<flexcomp type="direct" dim="1">``).
+"""``flexrod``: the cable as a MuJoCo 1D flex, a discrete elastic rod.
 
-MuJoCo generates the flex from a minimal ``flexcomp`` fragment (``point`` and ``element`` are required for
-``type="direct"``); everything else is set with the ``MjSpec`` API. ``dof="full"`` gives one body per vertex,
-``cable_{i}``, with three world-aligned slide joints and the vertex at the body origin: a point mass per particle.
+The flex is built with the ``MjSpec`` API alone (``MjSpec.add_flex``, no XML fragment, since ``MjSpec.attach``
+drops a flex), so :func:`add_cable` can add the cable to any spec, one that already holds a robot included;
+:func:`build` is :func:`~mjcable.mjcf.world.new_spec` plus :func:`add_cable`. It makes what
+``<flexcomp type="direct" dim="1" dof="full">`` would generate (the compiled models agree to the bit): one body per
+vertex, ``cable_{i}``, a world child at the vertex with three unnamed world-aligned slide joints (x, y, z) and the
+vertex at the body origin (empty ``vert``: ``flex_centered``), a point mass per particle; the flex ``cable`` lists
+them as ``vertbody`` with the edges ``(i, i + 1)`` as ``elem``.
 
 Mapping from the physical cable (MuJoCo 3.17; the numbers below were measured on the compiled model):
 
-* mass: body ``cable_{i}`` weighs ``cable.particle_masses[i]`` (m/n inside, m/2n at the ends; the flexcomp's even
-  split is overwritten); the site ``particle{i}`` sits at the vertex.
+* mass: body ``cable_{i}`` weighs ``cable.particle_masses[i]`` (m/n inside, m/2n at the ends), with the inertia of
+  a sphere of the cable radius; the site ``particle{i}`` sits at the vertex.
 * stretch, inextensible (``stretch_stiffness=None``): the flex edge equality (``<edge equality="true">``, here an
   ``mjEQ_FLEX`` equality added with the API) holds every edge at its rest length, the equal chord. It is a soft
   constraint whose static strain is about ``(1 - d)/d · (2/mᵢ) · T · τ² / l₀`` for edge tension T, impedance d and
@@ -69,6 +73,7 @@ from mjcable.scene import GRAVITY, Scene
 
 __all__ = [
     "build",
+    "add_cable",
     "vertex_body",
     "stable_substeps",
     "max_timestep",
@@ -145,13 +150,6 @@ def stable_substeps(scene: Scene, dt: float) -> int:
     return max(1, math.ceil(dt / max_timestep(scene) - _SUBSTEP_SLACK))
 
 
-def _flexcomp_xml(points: np.ndarray) -> str:
-    coords = " ".join(f"{x:.17g}" for x in points.ravel())
-    elements = " ".join(f"{i} {i + 1}" for i in range(len(points) - 1))
-    return (f'<mujoco><worldbody><flexcomp name="{FLEX}" type="direct" dim="1" dof="full" point="{coords}" '
-            f'element="{elements}"/></worldbody></mujoco>')
-
-
 def _straight(scene: Scene) -> np.ndarray:
     """``(n + 1, 3)`` the straight rest shape: equal chords from particle 0 along its start tangent, metres."""
     p = scene.cable.particles
@@ -160,44 +158,88 @@ def _straight(scene: Scene) -> np.ndarray:
 
 
 def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
+    """The ``flexrod`` model of ``scene``: :func:`~mjcable.mjcf.world.new_spec`'s world plus :func:`add_cable`,
+    MuJoCo stepping at ``timestep`` seconds."""
+    spec = world.new_spec(scene, timestep=timestep)
+    _add_cable(spec, scene, timestep, self_collision, stacklevel=5)  # warnings point at the catalogue's caller
+    return snap.snap_spec(spec)
+
+
+def add_cable(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
+    """Add the scene's cable (the flex, its vertex bodies, edge equality, pins and, for a stiff cable, the
+    :data:`~mjcable.mjcf.world.START_KEY` keyframe) to ``spec`` after whatever it already holds, and return it.
+
+    ``spec`` may hold other bodies, joints, actuators and keyframes: their ids do not change (the vertex bodies are
+    the last children of the world body). MuJoCo pads the existing keyframes with the cable's compiled pose; a stiff
+    cable's START_KEY starts with the spec's own ``qpos0`` and mocap poses (read from a compiled copy). The
+    flex is made with ``MjSpec.add_flex``, as ``<flexcomp type="direct" dim="1" dof="full">`` would make it: one
+    body ``cable_{i}`` per vertex at the vertex, three unnamed world-aligned slide joints, the vertex at the body
+    origin (an empty ``vert``: a centred flex).
+
+    Args:
+      spec: the spec to add to (edited in place). It must hold :func:`~mjcable.mjcf.world.new_spec`'s materials
+        (``cable``, and ``gripper`` for gripper pins) and none of the cable's names.
+      scene: the scene.
+      timestep: MuJoCo's physics step in seconds (edge-equality and pin time constants, stability rules).
+      self_collision: whether the flex collides with itself.
+    """
+    return _add_cable(spec, scene, timestep, self_collision, stacklevel=4)
+
+
+def _add_cable(spec: mujoco.MjSpec, scene: Scene, timestep: float, self_collision: bool, *,
+               stacklevel: int) -> mujoco.MjSpec:
     cable = scene.cable
     n = cable.n_particles
     stiff = cable.young > 0.0
     rest = _straight(scene) if stiff else cable.particles
-    spec = world.new_spec(scene, timestep=timestep, base_xml=_flexcomp_xml(rest))
-    _check_stability(scene, timestep)
-
-    flex = spec.flex(FLEX)
-    flex.radius = cable.radius
-    flex.young = cable.young
-    flex.poisson = 0.0  # unused by a 1D flex; 0 keeps it in MuJoCo's valid range [0, 0.5)
-    geom = world.cable_geom(scene, self_collision=self_collision)
-    for attribute in ("friction", "condim", "contype", "conaffinity", "material"):
-        setattr(flex, attribute, geom[attribute])
-    flex.selfcollide = mujoco.mjtFlexSelf.mjFLEXSELF_AUTO if self_collision else mujoco.mjtFlexSelf.mjFLEXSELF_NONE
-    if uses_edge_springs(scene, timestep):
-        flex.edgestiffness = cable.stretch_stiffness / cable.segment_length
-    else:
-        spec.add_equality(name=_EDGE_EQUALITY, type=mujoco.mjtEq.mjEQ_FLEX, name1=FLEX,
-                          solref=[EDGE_SOLREF_STEPS * timestep, 1.0], solimp=EDGE_SOLIMP)
+    _check_stability(scene, timestep, stacklevel)
+    base_qpos, base_mocap = _base_pose(spec) if stiff else (np.zeros(0), [])
 
     masses = cable.particle_masses
     for i in range(n):
-        body = spec.body(vertex_body(i))
-        body.mass = masses[i]
-        body.inertia = [_SPHERE_INERTIA * masses[i] * cable.radius**2] * 3
+        body = spec.worldbody.add_body(name=vertex_body(i), pos=rest[i], mass=masses[i], ipos=[0.0, 0.0, 0.0],
+                                       inertia=[_SPHERE_INERTIA * masses[i] * cable.radius**2] * 3,
+                                       explicitinertial=True)
+        for axis in np.eye(3):
+            body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis,
+                           damping=[cable.damping * masses[i], 0.0, 0.0])  # MuJoCo 3.17: [linear, polynomial]
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[cable.radius, 0, 0], contype=0, conaffinity=0,
                       group=_MARKER_GROUP, mass=0.0)
-        for joint in body.joints:
-            joint.damping = [cable.damping * masses[i], 0.0, 0.0]  # MuJoCo 3.17: [linear, polynomial terms]
         body.add_site(name=world.particle_site(i))
+
+    geom = world.cable_geom(scene, self_collision=self_collision)
+    springs = uses_edge_springs(scene, timestep)
+    spec.add_flex(
+        name=FLEX, dim=1, vertbody=[vertex_body(i) for i in range(n)],
+        elem=np.column_stack([np.arange(n - 1), np.arange(1, n)]).ravel().tolist(),
+        radius=cable.radius, young=cable.young,
+        poisson=0.0,  # unused by a 1D flex; 0 keeps it in MuJoCo's valid range [0, 0.5)
+        selfcollide=(mujoco.mjtFlexSelf.mjFLEXSELF_AUTO if self_collision else mujoco.mjtFlexSelf.mjFLEXSELF_NONE),
+        edgestiffness=cable.stretch_stiffness / cable.segment_length if springs else 0.0,
+        **{attribute: geom[attribute] for attribute in ("friction", "condim", "contype", "conaffinity", "material")})
+    if not springs:
+        spec.add_equality(name=_EDGE_EQUALITY, type=mujoco.mjtEq.mjEQ_FLEX, name1=FLEX,
+                          solref=[EDGE_SOLREF_STEPS * timestep, 1.0], solimp=EDGE_SOLIMP)
 
     mocap_pose = _add_pins(spec, scene, timestep, rest, straight=stiff)
     if stiff:
-        mocap = [mocap_pose[b.name] for b in spec.bodies if b.mocap]  # in mocap id order
+        # the keyframe covers the whole model: what the spec held before keeps its compiled pose (base_*), the
+        # cable's joints (the last qpos) take the start shape, its mocap anchors (the last mocap bodies) their poses
+        mocap = base_mocap + [mocap_pose[b.name] for b in spec.bodies if b.mocap and b.name in mocap_pose]
         extra = dict(mpos=np.ravel([pos for pos, _ in mocap]), mquat=np.ravel([q for _, q in mocap])) if mocap else {}
-        spec.add_key(name=START_KEY, qpos=(cable.particles - rest).ravel(), **extra)
-    return snap.snap_spec(spec)
+        spec.add_key(name=START_KEY, qpos=np.concatenate([base_qpos, (cable.particles - rest).ravel()]), **extra)
+    return spec
+
+
+def _base_pose(spec: mujoco.MjSpec) -> tuple:
+    """What ``spec`` holds before the cable goes in: its ``qpos0`` and its mocap bodies' ``[(pos, quat)]`` in mocap
+    id order (compiled from a copy; nothing to compile for a spec without joints or mocap bodies)."""
+    if not spec.joints and not any(b.mocap for b in spec.bodies):
+        return np.zeros(0), []
+    model = spec.copy().compile()
+    bodies = np.flatnonzero(model.body_mocapid >= 0)
+    bodies = bodies[np.argsort(model.body_mocapid[bodies])]
+    return model.qpos0.copy(), [(model.body_pos[b].copy(), model.body_quat[b].copy()) for b in bodies]
 
 
 def _add_pins(spec: mujoco.MjSpec, scene: Scene, timestep: float, rest: np.ndarray, *, straight: bool) -> dict:
@@ -248,19 +290,19 @@ def _turn(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return rotation.as_quat(scalar_first=True)
 
 
-def _check_stability(scene: Scene, timestep: float) -> None:
+def _check_stability(scene: Scene, timestep: float, stacklevel: int) -> None:
     cable = scene.cable
     if cable.stretch_stiffness is not None and not uses_edge_springs(scene, timestep):
         limit = STRETCH_STABILITY_FRACTION * _explicit_limit(scene, timestep)
         warnings.warn(f"flexrod: edge springs of E·A / l₀ = {cable.stretch_stiffness / cable.segment_length:.4g} N/m "
                       f"are unstable at timestep {timestep:g} s (limit {limit:.4g} N/m including bending); the "
-                      f"cable is modelled as inextensible instead", stacklevel=4)
+                      f"cable is modelled as inextensible instead", stacklevel=stacklevel)
     if _bending_load(scene) > _explicit_limit(scene, timestep):
         warnings.warn(f"flexrod: bending stiffness E·I = {cable.bending_stiffness:.4g} N·m² is unstable at timestep "
                       f"{timestep:g} s (MuJoCo integrates flex bending explicitly; stable below "
                       f"{_explicit_limit(scene, timestep) * cable.segment_length**3 / 4:.4g} N·m²); use "
-                      f"flexrod.stable_substeps(scene, dt) substeps", stacklevel=4)
+                      f"flexrod.stable_substeps(scene, dt) substeps", stacklevel=stacklevel)
     if timestep > _tension_timestep(scene):
         warnings.warn(f"flexrod: {cable.n_segments} segments are too fine for timestep {timestep:g} s once the cable "
                       f"is taut under its own weight (stable below {_tension_timestep(scene):.3g} s); use "
-                      f"flexrod.stable_substeps(scene, dt) substeps", stacklevel=4)
+                      f"flexrod.stable_substeps(scene, dt) substeps", stacklevel=stacklevel)
