@@ -186,12 +186,17 @@ def finish(spec: mujoco.MjSpec, scene: Scene) -> mujoco.MjSpec:
             spec.add_key(name=START_KEY, qpos=start["qpos"], qvel=start["qvel"], act=start["act"],
                          ctrl=start["ctrl"], mpos=start["mpos"].ravel(), mquat=start["mquat"].ravel())
         return spec
-    ours.qpos = np.concatenate([start["qpos"], np.asarray(ours.qpos)])
-    ours.qvel = np.concatenate([start["qvel"], np.asarray(ours.qvel)]) if len(ours.qvel) else start["qvel"]
+    # the model's own start key begins with the world's default pose (it was made in the world's spec: flexrod's
+    # start shape); put the world's start there
+    qpos, mpos, mquat = np.array(ours.qpos), np.array(ours.mpos), np.array(ours.mquat)
+    nq, nm = len(start["qpos"]), 3 * len(start["mpos"])
+    qpos[:nq] = start["qpos"]
+    if nm:
+        mpos[:nm], mquat[:4 * len(start["mpos"])] = start["mpos"].ravel(), start["mquat"].ravel()
+        ours.mpos, ours.mquat = mpos, mquat
+    ours.qpos = qpos
+    ours.qvel = start["qvel"]  # MuJoCo pads it with the cable's zero velocities
     ours.act, ours.ctrl = start["act"], start["ctrl"]
-    if len(ours.mpos) or len(start["mpos"]):
-        ours.mpos = np.concatenate([start["mpos"].ravel(), np.asarray(ours.mpos)])
-        ours.mquat = np.concatenate([start["mquat"].ravel(), np.asarray(ours.mquat)])
     return spec
 
 
