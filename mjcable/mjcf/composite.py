@@ -1,17 +1,25 @@
 """``composite``: MuJoCo's ``<composite type="cable">`` with the ``mujoco.elasticity.cable`` plugin.
 
-MuJoCo generates the cable from a minimal XML fragment (``vertex=`` the scene's start particles in tree order, see
-the pins below): a chain of capsule bodies ``cableB_first``, ``cableB_1`` … ``cableB_{n-2}``, ``cableB_last``
-linked by ball joints ``cableJ_1`` … ``cableJ_last``, body ``i``'s frame at the tree's ``i``-th particle with its x
-axis along the segment (frames transported without twist), capsule geoms ``cableG{i}``, sites ``cableS_first`` /
-``cableS_last``. MuJoCo 3.17's ``initial`` sets the root joint ``cableJ_first`` (``"free"``: a free joint,
-``"ball"``, ``"none"``: welded to its parent); we ask for ``"none"`` and add the root's joints as ``joints`` does
-(:func:`mjcable.mjcf.joints.add_root_joints`), so that its rotation carries the same armature. Everything else is
-added with the MjSpec API after parsing: the ``particle{i}`` sites (at the origin of the body that starts at
-particle ``i``; the tree's last particle at the end of the last capsule), exact frames (the composite computes its
-own from single-precision vertices, 1e-6 m off), contact attributes, armature, pins, and the neighbour excludes
-(the composite's own name a missing body for 2 segments). The same capsule chain as ``joints``, with MuJoCo's rod
-model for bending and twist instead of joint springs.
+The model that MuJoCo's ``<composite type="cable" initial="none">`` generates, built directly with the MjSpec API
+(:func:`add_cable`) so that it can be added into any spec, a user's world included (a composite is XML only, and
+attaching a parsed one into another spec leaves an unnamed default class that ``to_xml`` cannot reload): a chain of
+capsule bodies ``cableB_first``, ``cableB_1`` … ``cableB_{n-2}``, ``cableB_last`` linked by ball joints
+``cableJ_1`` … ``cableJ_{n-2}``, ``cableJ_last`` (group 3), body ``i``'s frame at the tree's ``i``-th particle
+with its x axis along the segment (frames transported without twist, :func:`mjcable.mjcf.joints.segment_frames`),
+capsule geoms ``cableG{i}``, sites ``cableS_first`` / ``cableS_last`` (group 3), the text ``composite_cable``
+(``rope_cable``) that tags a composite cable, and for E > 0 one instance ``compositecable`` of the plugin on every
+body (with its ``<extension>`` declaration), configured like the composite's ``<plugin>``. As the composite with
+``initial="none"`` the root gets no joint of its own; the root's joints are added as ``joints`` does
+(:func:`mjcable.mjcf.joints.add_root_joints`, ``cableJ_first``), so that its rotation carries the same armature.
+Also: the ``particle{i}`` sites (at the origin of the body that starts at particle ``i``; the tree's last particle
+at the end of the last capsule), contact attributes, armature, pins and the neighbour excludes. The same capsule
+chain as ``joints``, with MuJoCo's rod model for bending and twist instead of joint springs.
+
+Spec-wide settings: :func:`add_cable` sets ``option.viscosity``, ``option.integrator`` and ``option.jacobian``
+(below) on the whole spec, overriding a user world's own; the medium viscosity drags every body in the world, not
+only the cable. A keyframe of the world written before the cable was added is shorter than the model: MuJoCo 3.17
+pads it at compile with ``qpos0`` (the cable's start shape, see the plugin below) and the mocap grippers' start
+poses.
 
 Mapping from the physical cable:
 
@@ -35,7 +43,7 @@ Mapping from the physical cable:
 Pins as in ``joints``: the chain is generated from the pinned end the tree is rooted at
 (:func:`mjcable.mjcf.joints.tree_order`: particle 0, or particle n when only the far end has a world or gripper
 pin, so ``cableB_first`` then sits at particle n); the root pin through the root's joints (none: free; world pin:
-ball, clamped: none; gripper: ball or none, the generated chain re-parented under the mocap body ``gripper{k}``),
+ball, clamped: none; gripper: ball or none, the chain a child of the mocap body ``gripper{k}``),
 every other pin (sockets always) with site-to-site connect equalities ``pin{k}`` / ``pin{k}_clamp``. A moving
 gripper held by an equality at the far leaf of the chain diverges (see ``joints``).
 """
@@ -48,24 +56,13 @@ import numpy as np
 from mjcable.mjcf import joints, snap, world
 from mjcable.scene import Scene
 
-__all__ = ["build", "body_name", "plugin_moduli", "POISSON", "PREFIX", "PLUGIN"]
+__all__ = ["build", "add_cable", "body_name", "joint_name", "plugin_moduli", "POISSON", "PREFIX", "PLUGIN", "INSTANCE"]
 
 POISSON = 0.5  # Poisson's ratio ν of the cable, for the plugin's shear modulus G = E / (2 (1 + ν))
 PREFIX = "cable"
 PLUGIN = "mujoco.elasticity.cable"
-
-_XML = """<mujoco>
-  {extension}
-  <worldbody>
-    <composite prefix="{prefix}" type="cable" initial="none" vertex="{vertex}">
-      {plugin}
-      <geom type="capsule" size="{radius!r}" mass="{mass!r}"/>
-    </composite>
-  </worldbody>
-</mujoco>
-"""
-_PLUGIN_XML = ('<plugin plugin="{name}"><config key="bend" value="{bend!r}"/><config key="twist" value="{twist!r}"/>'
-               '<config key="flat" value="true"/></plugin>')
+INSTANCE = f"composite{PREFIX}"  # the plugin instance's name, as <composite> names it
+_HIDDEN_GROUP = 3  # the group of the composite's own joints and sites (hidden in viewers by default)
 
 
 def body_name(i: int, n_segments: int) -> str:
@@ -77,75 +74,109 @@ def body_name(i: int, n_segments: int) -> str:
     return f"{PREFIX}B_{i}"
 
 
+def joint_name(i: int, n_segments: int) -> str:
+    """Name of the ball joint between bodies ``i - 1`` and ``i`` (``i >= 1``); the root's are ``cableJ_first``
+    (and ``cableJ_first_x`` … ``_z`` for a free root, see :func:`mjcable.mjcf.joints.add_root_joints`)."""
+    return f"{PREFIX}J_last" if i == n_segments - 1 else f"{PREFIX}J_{i}"
+
+
 def plugin_moduli(scene: Scene) -> tuple:
     """``(bend, twist)`` of the cable plugin in Pa: E and G = E / (2 (1 + ν))."""
     young = scene.cable.young
     return young, young / (2.0 * (1.0 + POISSON))
 
 
-def _base_xml(scene: Scene) -> str:
-    cable = scene.cable
-    bend, twist = plugin_moduli(scene)
-    stiff = bend > 0.0
-    return _XML.format(
-        extension=f'<extension><plugin plugin="{PLUGIN}"/></extension>' if stiff else "",
-        prefix=PREFIX,
-        vertex=" ".join(repr(float(x)) for x in cable.particles[joints.tree_order(scene)].ravel()),
-        plugin=_PLUGIN_XML.format(name=PLUGIN, bend=bend, twist=twist) if stiff else "",
-        radius=cable.radius, mass=cable.mass / cable.n_segments,
-    )
-
-
 def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
     """The ``composite`` spec of ``scene`` (see the module docstring); MuJoCo steps at ``timestep`` seconds."""
+    spec = world.new_spec(scene, timestep=timestep)
+    add_cable(spec, scene, timestep=timestep, self_collision=self_collision)
+    return snap.snap_spec(spec)
+
+
+def add_cable(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, self_collision: bool = False) -> None:
+    """Add the scene's cable, its pins and the plugin to ``spec`` in place (see the module docstring).
+
+    ``spec`` holds the scene's world (:func:`mjcable.mjcf.world.new_spec`: the obstacles, the ``cable`` and
+    ``gripper`` materials) and may hold anything else (bodies, joints, actuators, plugins, keyframes): the cable is
+    appended to the world body (or to its gripper's mocap body, also appended), so the spec's own elements keep
+    their names and ids. The cable's names (``cableB_*``, ``cableJ_*``, ``cableG*``, ``cableS_*``, plugin
+    instance ``compositecable``, text ``composite_cable``, ``particle{i}``, ``anchor{k}``, ``gripper{k}``,
+    ``pin{k}``) must be free. Overrides spec-wide settings: ``option.viscosity`` (the cable's drag, which drags
+    every other body too), ``option.integrator`` and ``option.jacobian`` (:mod:`mjcable.mjcf.joints`), and the
+    obstacles' contact ``solref``.
+
+    Keyframes: MuJoCo 3.17 pads a keyframe shorter than the model at compile, at the end, with ``qpos0`` and the
+    mocap bodies' body positions, and writes the padded values back into the spec's ``keys``. The cable's
+    joints and grippers come after the spec's own and the cable compiles in its start shape, so a keyframe written
+    before the cable was added keeps its values and puts the cable at its start and the grippers at their pins.
+
+    Callers snap the spec (:func:`mjcable.mjcf.snap.snap_spec`) before compiling or saving it, as :func:`build`
+    does.
+    """
     cable = scene.cable
     n = cable.n_segments
     l0 = cable.segment_length
     kind, tree_pin = joints.root_joint(scene)
     order = joints.tree_order(scene)
     p = cable.particles[order]  # tree order: body i's origin is p[i], particle order[i]
-    spec = world.new_spec(scene, timestep=timestep, base_xml=_base_xml(scene))
     spec.option.viscosity = joints.segment_viscosity(scene)
     spec.option.integrator = joints.integrator(scene, timestep)
     spec.option.jacobian = joints.jacobian(scene)
-    for exclude in list(spec.excludes):  # the composite's own neighbour excludes (wrong for n = 2): ours below
-        spec.delete(exclude)
 
-    joints.add_anchors(spec, scene)
-    if tree_pin is not None and scene.pins[tree_pin].kind == "gripper":
-        _reparent(spec, spec.body(body_name(0, n)), spec.body(world.gripper_body(tree_pin)), p[0])
-
-    geom = world.cable_geom(scene, self_collision=self_collision)
+    # Element order as MuJoCo's <composite> generated it before the world and pins: the chain is the first body
+    # unless a gripper roots it (then the chain is the gripper's child, after the anchors).
+    gripper_root = tree_pin is not None and scene.pins[tree_pin].kind == "gripper"
+    if gripper_root:
+        joints.add_anchors(spec, scene)
+        parent, origin = spec.body(world.gripper_body(tree_pin)), np.zeros(3)
+    else:
+        parent, origin = spec.worldbody, p[0]
+    _add_chain(spec, scene, parent, origin, p, order, timestep=timestep, self_collision=self_collision)
+    if not gripper_root:
+        joints.add_anchors(spec, scene)
     world.stiffen_obstacle_contacts(spec, scene, timestep)
-    options = joints.ball_options(scene, timestep)
-    # The composite computes its frames from single-precision vertices; put in exact ones of the same convention
-    # (twist-free, x along each segment; only the root's roll about its axis differs, which nothing depends on).
-    frames = joints.segment_frames(p)
-    rel = joints.relative_quats(frames)
-    for i in range(n):
-        body = spec.body(body_name(i, n))
-        body.pos, body.quat = (p[0], frames[0]) if i == 0 else ([l0, 0.0, 0.0], rel[i - 1])
-        body.add_site(name=world.particle_site(order[i]))
-        for g in body.geoms:
-            g.fromto = [0.0, 0.0, 0.0, l0, 0.0, 0.0]
-            for key, value in geom.items():
-                setattr(g, key, value)
-        for j in body.joints:
-            if j.type == mujoco.mjtJoint.mjJNT_BALL:
-                j.armature, j.damping = options["armature"], options["damping"]
-    joints.add_root_joints(spec.body(body_name(0, n)), kind, name=f"{PREFIX}J_first", options=options)
+    joints.add_root_joints(spec.body(body_name(0, n)), kind, name=f"{PREFIX}J_first",
+                           options=joints.ball_options(scene, timestep))
     spec.body(body_name(n - 1, n)).add_site(name=world.particle_site(order[n]), pos=[l0, 0.0, 0.0])
     for i in range(n - 1):
         spec.add_exclude(bodyname1=body_name(i, n), bodyname2=body_name(i + 1, n))
-
     joints.add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
-    return snap.snap_spec(spec)
 
 
-def _reparent(spec: mujoco.MjSpec, root, parent, origin: np.ndarray) -> None:
-    """Move the generated chain under ``parent`` (a body at world position ``origin`` with identity orientation):
-    MjSpec attaches a deep copy (names, plugin and all), then the original is deleted."""
-    spec.copy_during_attach = True  # write-only flag
-    parent.add_frame(pos=-np.asarray(origin)).attach_body(root, "", "")
-    spec.copy_during_attach = False
-    spec.delete(root)
+def _add_chain(spec: mujoco.MjSpec, scene: Scene, parent, origin: np.ndarray, p: np.ndarray, order: np.ndarray, *,
+               timestep: float, self_collision: bool) -> None:
+    """The capsule bodies, ball joints, geoms and sites of the chain under ``parent`` (root body at ``origin`` in
+    it) and, for E > 0, the plugin instance on every body: what ``<composite type="cable" initial="none">`` makes,
+    with exact frames and our contact attributes, armature and damping."""
+    cable = scene.cable
+    n = cable.n_segments
+    l0 = cable.segment_length
+    bend, twist = plugin_moduli(scene)
+    plugin = None
+    if bend > 0.0:
+        spec.activate_plugin(PLUGIN)  # <extension><plugin plugin="mujoco.elasticity.cable"/>
+        plugin = spec.add_plugin(name=INSTANCE, plugin_name=PLUGIN, active=True)
+        plugin.config = {"twist": repr(float(twist)), "bend": repr(float(bend)), "flat": "true"}
+    spec.add_text(name=f"composite_{PREFIX}", data=f"rope_{PREFIX}")  # the composite's tag
+
+    geom = world.cable_geom(scene, self_collision=self_collision)
+    options = joints.ball_options(scene, timestep)
+    # Exact frames in the composite's convention: twist-free, x along each segment.
+    frames = joints.segment_frames(p)
+    rel = joints.relative_quats(frames)
+    body = parent
+    for i in range(n):
+        pos, quat = (origin, frames[0]) if i == 0 else ([l0, 0.0, 0.0], rel[i - 1])
+        body = body.add_body(name=body_name(i, n), pos=pos, quat=quat)
+        if i > 0:
+            body.add_joint(name=joint_name(i, n), type=mujoco.mjtJoint.mjJNT_BALL, group=_HIDDEN_GROUP, **options)
+        body.add_geom(name=f"{PREFIX}G{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0.0, 0.0, 0.0, l0, 0.0, 0.0],
+                      size=[cable.radius, 0.0, 0.0], mass=cable.mass / n, **geom)
+        if i == 0:  # a single segment is first and last: its one site at the end, as the composite does
+            body.add_site(name=f"{PREFIX}S_first", pos=[l0 if n == 1 else 0.0, 0.0, 0.0], group=_HIDDEN_GROUP)
+        elif i == n - 1:
+            body.add_site(name=f"{PREFIX}S_last", pos=[l0, 0.0, 0.0], group=_HIDDEN_GROUP)
+        body.add_site(name=world.particle_site(order[i]))
+        if plugin is not None:
+            body.plugin = plugin
+
