@@ -188,7 +188,8 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
     """Obstacle contacts: segment ``seg`` (C,), ``geo`` (C, 7) = [s, n₀ (3), offset, μ, obstacle row in
     ``shapes`` (B, 16) or −1], multipliers ``lam`` (C,). Projects C ≥ 0 (module docstring) against the obstacle's
     shape, and adds each particle's share of Δλₙ to ``fric`` (its normal sum, μ-weighted sum and normal vector, and
-    the obstacle). A held particle (w = 0) collects its share of ∇C Δλ in ``react``."""
+    the obstacle). A held particle (w = 0) collects its share of ∇C Δλ in ``react``; a contact nearer a held
+    particle than its segment's middle is left to the pin."""
     for c in range(seg.shape[0]):
         i = seg[c]
         j = i + 1
@@ -197,6 +198,10 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
         wi, wj = w[i], w[j]
         wsum = a * a * wi + b * b * wj
         if wsum == 0.0:
+            continue
+        if (wi == 0.0 and a > 0.5) or (wj == 0.0 and b > 0.5):
+            # nearer a held particle than the segment's middle, the contact is the pin's: the free particle alone
+            # would satisfy it with a lever of 1/share, a correction without bound as the point nears the pin
             continue
         px = a * x[i, 0] + b * x[j, 0]
         py = a * x[i, 1] + b * x[j, 1]
