@@ -23,7 +23,7 @@ from mjcable.scene import Box, Capsule, Cylinder, Floor, Pin, Sphere
 
 MODELS = mjcable.MODELS
 
-TASKS = envs.names()
+TASKS = envs.names("benchmarking")  # the gripper tasks; the arm task jaco_unplug: tests/test_jaco_unplug.py
 MAX_GRIPPER_SPEED = envs.MAX_GRIPPER_SPEED
 SHORT_LIMIT = 0.2  # s: conformance episodes of 10 control steps, so the action sequence crosses an episode's end
 RANDOM_STEPS = 400  # control steps of the random policy: two 4 s episodes

@@ -4,7 +4,9 @@ Tasks (registered once in :data:`SUITE`, like the dm_control suite):
 
 * ``reach_sag``: both ends held by grippers; move one so that the mid-span sag reaches a random target;
 * ``drape``: lay the cable, held at its middle, over a peg so that both ends hang down on either side;
-* ``unplug``: pull the plug end out of a socket (it lets go above a force) and carry it to a random target.
+* ``unplug``: pull the plug end out of a socket (it lets go above a force) and carry it to a random target;
+* ``jaco_unplug``: a Kinova Jaco arm (joint position targets) holding one end pulls the plug out of a wall socket
+  and carries it to a target (:mod:`mjcable.envs.jaco_unplug`; tag ``"arm"``, the others are ``"benchmarking"``).
 
 Every environment is a ``dm_control.rl.control.Environment``: actions are gripper displacements per control step
 (one ``BoundedArraySpec``; grippers are clamped to a workspace where they can neither overstretch the cable nor enter
@@ -33,7 +35,7 @@ from dm_control.rl import control
 
 from mjcable import render
 from mjcable import catalog
-from mjcable.envs import base, drape, reach_sag, unplug  # noqa: F401  (importing registers the tasks)
+from mjcable.envs import base, drape, jaco_unplug, reach_sag, unplug  # noqa: F401  (importing registers the tasks)
 from mjcable.envs.base import (DEFAULT_CONTROL_TIMESTEP, FAMILY_DEFAULTS, MAX_GRIPPER_SPEED, SUITE, CablePhysics,
                                CableTask, env_defaults)
 from mjcable.envs.workspace import STRETCH_MARGIN, Workspace
@@ -69,7 +71,7 @@ def load(task: str, model: str = "flexrod", *, random=None, time_limit: Optional
     """A cable task on one cable model.
 
     Args:
-      task: one of :func:`names` (``"reach_sag"``, ``"drape"``, ``"unplug"``).
+      task: one of :func:`names` (``"reach_sag"``, ``"drape"``, ``"unplug"``, ``"jaco_unplug"``).
       model: a model of the catalogue (:func:`mjcable.catalog.names`).
       random: an int seed, a ``numpy.random.RandomState`` or ``None`` (fresh entropy), as in dm_control.
       time_limit: episode length in seconds (> 0); default the task's (10 s).
