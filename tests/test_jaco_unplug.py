@@ -46,10 +46,12 @@ class _Conformance(test_utils.EnvironmentTestMixin):
         yield from _random_actions(self.environment.action_spec(), 25, seed=1)
 
 
+_QUICK = ("xpbd", "joints", "composite", "flexrod", "springs")  # pbd and jakobsen (~5 s each) run with the slow ones
 for _model in MODELS:
     _name = f"TestConformance_{_model}"
-    globals()[_name] = type(_name, (_Conformance, unittest.TestCase), {"model": _model})  # ~25 s for all seven
-del _model, _name
+    _marks = {} if _model in _QUICK else {"pytestmark": [pytest.mark.slow]}
+    globals()[_name] = type(_name, (_Conformance, unittest.TestCase), {"model": _model, **_marks})  # ~25 s for all
+del _model, _name, _marks
 
 
 # --- registry, specs, reward ----------------------------------------------------------------------------------------
