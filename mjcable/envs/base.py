@@ -54,6 +54,7 @@ from mjcable.scene import Scene
 from mjcable.simulator import Simulator
 
 __all__ = [
+    "checked_action",
     "SUITE",
     "CablePhysics",
     "CableTask",
@@ -370,25 +371,9 @@ class CableTask(base.Task):
         return self._action_spec
 
     def before_step(self, action, physics: CablePhysics) -> None:
-        spec = self.action_spec(physics)
-        try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"action must be an array of shape {spec.shape} in metres, got {action!r}") from exc
-        if a.shape != spec.shape:
-            raise ValueError(f"action must have shape {spec.shape} (x, y, z displacement in metres of grippers "
-                             f"{tuple(self.controlled)}), got shape {a.shape}: {action!r}")
-        size = np.abs(a)
-        if a.size and not size.max() <= self._max_step:  # beyond a bound, or NaN
-            bound = self._max_step + _ACTION_RTOL * self._max_step
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"action must be finite, got {action!r}")
-            if not np.all(size <= bound):
-                bad = a[size > bound]
-                raise ValueError(f"action entries must lie in [{-self._max_step:g}, {self._max_step:g}] m per "
-                                 f"control step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s), got {bad.tolist()} "
-                                 f"in {action!r}")
-            a = np.clip(a, spec.minimum, spec.maximum)  # within the slack: onto the bound
+        a = checked_action(action, self.action_spec(physics), self._max_step, unit="m",
+                           what=f"x, y, z displacement in metres of grippers {tuple(self.controlled)}",
+                           per=f" per control step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s)")
         physics.command_grippers({k: a[3 * i: 3 * i + 3] for i, k in enumerate(self.controlled)})
 
     def get_observation(self, physics: CablePhysics) -> collections.OrderedDict:
@@ -401,6 +386,33 @@ class CableTask(base.Task):
         for name, value in self.task_observations(physics).items():
             obs[name] = np.asarray(value, dtype=np.float64)
         return obs
+
+
+def checked_action(action, spec: specs.BoundedArray, bound: float, *, unit: str, what: str,
+                   per: str = "") -> np.ndarray:
+    """``action`` as a float64 array of ``spec``'s shape, each entry within ±``bound`` (in ``unit``; entries up to
+    ``_ACTION_RTOL`` past it, float32 round-off, are put onto the bound). ``what`` says what the entries are and
+    ``per`` qualifies the bound in the messages.
+
+    Raises:
+      ValueError: not an array, the wrong shape, a non-finite entry or one beyond the bound, naming it.
+    """
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"action must be an array of shape {spec.shape} in {unit}, got {action!r}") from exc
+    if a.shape != spec.shape:
+        raise ValueError(f"action must have shape {spec.shape} ({what}), got shape {a.shape}: {action!r}")
+    size = np.abs(a)
+    if a.size and not size.max() <= bound:  # beyond a bound, or NaN
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite, got {action!r}")
+        slack = bound + _ACTION_RTOL * bound
+        if not np.all(size <= slack):
+            raise ValueError(f"action entries must lie in [{-bound:g}, {bound:g}] {unit}{per}, got "
+                             f"{a[size > slack].tolist()} in {action!r}")
+        a = np.clip(a, -bound, bound)  # within the slack: onto the bound
+    return a
 
 
 def _check_seconds(name: str, value, *, allow_none: bool) -> Optional[float]:

@@ -160,20 +160,9 @@ class JacoUnplug(base.CableTask):
         return self._action_spec
 
     def before_step(self, action, physics: Physics) -> None:
-        spec = self._action_spec
-        try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"action must be an array of shape {spec.shape} in radians, got {action!r}") from exc
-        if a.shape != spec.shape:
-            raise ValueError(f"action must have shape {spec.shape} (joint target offsets from home in rad of "
-                             f"{jaco.ARM_JOINTS}), got shape {a.shape}: {action!r}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action must be finite, got {action!r}")
-        bound = ACTION_RANGE * (1.0 + base._ACTION_RTOL)
-        if np.any(np.abs(a) > bound):
-            raise ValueError(f"action entries must lie in [{-ACTION_RANGE:g}, {ACTION_RANGE:g}] rad, got {action!r}")
-        physics.set_arm_targets(self._home + np.clip(a, -ACTION_RANGE, ACTION_RANGE))
+        a = base.checked_action(action, self._action_spec, ACTION_RANGE, unit="rad",
+                           what=f"joint target offsets from home in rad of {jaco.ARM_JOINTS}")
+        physics.set_arm_targets(self._home + a)
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
         obs = collections.OrderedDict()
