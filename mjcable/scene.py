@@ -361,7 +361,7 @@ class Scene:
         for k, pin in enumerate(self.pins):
             if pin.kind != "body":
                 continue
-            point = self.world.body_point(pin.body, pin.offset) if pin.body else None
+            point = self.world.body_point(pin.body, pin.offset)
             i = self.pin_particle(k)
             miss = float(np.linalg.norm(point - p[i]))
             if miss > BODY_PIN_TOLERANCE:

@@ -96,9 +96,10 @@ class Host:
         return out
 
     def substeps(self, S: kernels.Chain, C: kernels.Contacts, n: int,
-                 one_substep: Optional[Callable[[int], tuple]] = None) -> tuple:
-        """``n`` solver substeps, each with its host ``mj_step``. Grippers move linearly towards their targets as
-        in the plain path. Returns (finite, sockets released, a divergence reason from MuJoCo's warnings or None).
+                 one_substep: Optional[Callable[[], tuple]] = None) -> tuple:
+        """``n`` solver substeps, each with its host ``mj_step`` and each taken by ``one_substep()`` (default: the
+        kernels' own whole substep, the solver stepping at h). Grippers move linearly towards their targets as in
+        the plain path. Returns (finite, sockets released, a divergence reason from MuJoCo's warnings or None).
         """
         m, d, h = self.m, self.d, self.h
         start_from, start_to = S.pin_from.copy(), S.pin_to.copy()
@@ -123,7 +124,7 @@ class Host:
                 S.w[self.particles] = free_w
             S.pin_to[:] = target
             if one_substep is not None:
-                ok, count = one_substep(sub)
+                ok, count = one_substep()
             else:
                 ok, count = kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0)
             finite = finite and ok

@@ -76,7 +76,6 @@ class NativeBackend:
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
         n = scene.cable.n_particles
-        self._key = _name2id(m, mujoco.mjtObj.mjOBJ_KEY, world.START_KEY)
         self._sites = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i)) for i in range(n)])
         if np.any(self._sites < 0):
             raise RuntimeError(f"model {self.name!r} lacks particle sites")  # pragma: no cover - a generator bug
@@ -98,10 +97,7 @@ class NativeBackend:
 
     def reset(self) -> None:
         m, d = self.mj_model, self.mj_data
-        if self._key >= 0:
-            mujoco.mj_resetDataKeyframe(m, d, self._key)
-        else:
-            mujoco.mj_resetData(m, d)
+        world.reset_to_start(m, d)
         mujoco.mj_forward(m, d)
         self._gripper_from = {}
         self._refresh()

@@ -98,7 +98,6 @@ class ParticleBackend:
         first = int(self._sites[0])
         contiguous = np.array_equal(self._sites, np.arange(first, first + n_particles))
         self._site_pos = self.mj_data.site_xpos[first:first + n_particles] if contiguous else None
-        self._key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, world.START_KEY)
         self._host = Host(scene, m, self.mj_data, self.h) if scene.world is not None else None
         self._start_pose()
         ours = slice(0 if scene.world is None else scene.world.model.npair, m.npair)
@@ -121,10 +120,7 @@ class ParticleBackend:
     def _start_pose(self) -> None:
         """MuJoCo's data at the start: the model's start keyframe (a user world's start) or its default pose."""
         m, d = self.mj_model, self.mj_data
-        if self._key >= 0:
-            mujoco.mj_resetDataKeyframe(m, d, self._key)
-        else:
-            mujoco.mj_resetData(m, d)
+        world.reset_to_start(m, d)
         mujoco.mj_kinematics(m, d)
 
     @property
@@ -160,7 +156,7 @@ class ParticleBackend:
             if self._obstacles is not None:
                 self._obstacles.disable()
             finite, released, warning = self._host.substeps(self.state, self.contacts, self.settings.substeps,
-                                                            self._user_iterations if self._user else None)
+                                                            (lambda: self._user_substep(1, 0)) if self._user else None)
             if warning:
                 return warning
         elif self._user:
@@ -262,30 +258,24 @@ class ParticleBackend:
             self.last_self_contact_count = count
         self.contacts = contacts
 
-    def _user_iterations(self, sub: int) -> tuple:
-        """One substep ``sub`` (of one) with PBD user constraints projected after every iteration."""
+    def _user_substep(self, n: int, sub: int) -> tuple:
+        """Substep ``sub`` of ``n``, as :func:`kernels.run_substeps` takes it, with PBD user constraints projected in
+        Python after the built-in ones in every iteration. Returns (finite, sockets released)."""
         S, C, s = self.state, self.contacts, self.settings
-        kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_BEGIN, 0)
+        kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_BEGIN, sub)
         for _ in range(s.iterations):
-            kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ITERATE, 0)
+            kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_ITERATE, sub)
             for constraint, idx in self._user:
                 constraint.project(S.x, S.w, idx, iteration_factor(constraint.factor, s.iterations))
-        return kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_END, 0)
+        return kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_END, sub)
 
     def _substeps_with_user_constraints(self) -> tuple:
-        """The same substeps as :func:`kernels.run_substeps`, with PBD user constraints projected in Python after
-        the built-in ones in every iteration."""
-        S, C, s = self.state, self.contacts, self.settings
-        n = s.substeps
+        """The same substeps as :func:`kernels.run_substeps`, with PBD user constraints (:meth:`_user_substep`)."""
+        n = self.settings.substeps
         released = 0
         finite = True
         for sub in range(n):
-            kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_BEGIN, sub)
-            for _ in range(s.iterations):
-                kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_ITERATE, sub)
-                for constraint, idx in self._user:
-                    constraint.project(S.x, S.w, idx, iteration_factor(constraint.factor, s.iterations))
-            finite, count = kernels.run_substeps_flat(*S, *C, n, kernels.PHASE_END, sub)
+            finite, count = self._user_substep(n, sub)
             released += count
         return finite, released
 

@@ -34,6 +34,7 @@ from mjcable.scene import GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
 __all__ = [
     "new_spec",
     "finish",
+    "reset_to_start",
     "user_names",
     "cable_geom",
     "add_anchor",
@@ -111,15 +112,9 @@ def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -
     spec.stat.center = box.mean(axis=0)
     spec.stat.extent = max(float(np.ptp(box, axis=0).max()), 0.2)
 
-    spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                     rgb1=[0.82, 0.84, 0.86], rgb2=[0.72, 0.74, 0.77], width=300, height=300)
+    _add_materials(spec, grid=True)
     spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
                      rgb1=[0.93, 0.95, 0.98], rgb2=[0.75, 0.8, 0.88], width=256, height=1536)
-    grid = spec.add_material(name="grid", texrepeat=[8, 8], reflectance=0.05)
-    grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
-    spec.add_material(name="obstacle", rgba=[0.62, 0.5, 0.38, 1.0])
-    spec.add_material(name="cable", rgba=[0.85, 0.25, 0.12, 1.0])
-    spec.add_material(name="gripper", rgba=[0.2, 0.4, 0.9, 0.6])
 
     world = spec.worldbody
     center = spec.stat.center
@@ -138,23 +133,28 @@ def _user_spec(scene: Scene, timestep: float) -> mujoco.MjSpec:
     spec.option.timestep = timestep
     spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 1280)
     spec.visual.global_.offheight = max(spec.visual.global_.offheight, 720)
-    materials = {m.name for m in spec.materials}
     with user_names(scene):
-        if any(isinstance(ob, Floor) for ob in scene.obstacles) and "grid" not in materials:
-            spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                             builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.82, 0.84, 0.86],
-                             rgb2=[0.72, 0.74, 0.77], width=300, height=300)
-            grid = spec.add_material(name="grid", texrepeat=[8, 8], reflectance=0.05)
-            grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
-        for name, rgba in (("obstacle", [0.62, 0.5, 0.38, 1.0]), ("cable", [0.85, 0.25, 0.12, 1.0]),
-                           ("gripper", [0.2, 0.4, 0.9, 0.6])):
-            if name not in materials:
-                spec.add_material(name=name, rgba=rgba)
+        _add_materials(spec, grid=any(isinstance(ob, Floor) for ob in scene.obstacles),
+                       have={m.name for m in spec.materials})
         for i, ob in enumerate(scene.obstacles):
             _add_obstacle(spec.worldbody, scene, i, ob)
         if CAMERA not in {c.name for c in spec.cameras}:
             _add_camera(spec.worldbody, _cable_box(scene))
     return spec
+
+
+def _add_materials(spec: mujoco.MjSpec, *, grid: bool, have: frozenset = frozenset()) -> None:
+    """The materials the cable's elements use (``obstacle``, ``cable``, ``gripper``, and with ``grid`` a Floor's
+    checker ``grid`` and its texture), but those named in ``have`` (a user world's own)."""
+    if grid and "grid" not in have:
+        spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+                         rgb1=[0.82, 0.84, 0.86], rgb2=[0.72, 0.74, 0.77], width=300, height=300)
+        material = spec.add_material(name="grid", texrepeat=[8, 8], reflectance=0.05)
+        material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+    for name, rgba in (("obstacle", [0.62, 0.5, 0.38, 1.0]), ("cable", [0.85, 0.25, 0.12, 1.0]),
+                       ("gripper", [0.2, 0.4, 0.9, 0.6])):
+        if name not in have:
+            spec.add_material(name=name, rgba=rgba)
 
 
 @contextlib.contextmanager
@@ -228,6 +228,16 @@ def _exclude_pinned_bodies(spec: mujoco.MjSpec, scene: Scene) -> None:
             if body and body != pin.body and (pin.body, body) not in pairs:
                 pairs.add((pin.body, body))
                 spec.add_exclude(bodyname1=pin.body, bodyname2=body)
+
+
+def reset_to_start(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+    """Reset ``d`` to the model's start: the keyframe :data:`START_KEY` where the model has one (a stiff
+    ``flexrod``, any model in a user world), else the default pose. Kinematics are left to the caller."""
+    key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, START_KEY)
+    if key >= 0:
+        mujoco.mj_resetDataKeyframe(m, d, key)
+    else:
+        mujoco.mj_resetData(m, d)
 
 
 def stiffen_obstacle_contacts(spec: mujoco.MjSpec, scene: Scene, timestep: float) -> None:
