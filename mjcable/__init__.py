@@ -9,6 +9,7 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from mjcable import catalog, mjcf, scenes, solvers  # noqa: E402
+from mjcable.batch import Batch, BatchTrajectory  # noqa: E402
 from mjcable.catalog import build  # noqa: E402
 from mjcable.errors import SimulationDivergedError  # noqa: E402
 from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Pin, Scene, Sphere  # noqa: E402
@@ -33,6 +34,8 @@ __all__ = [
     "build",
     "Simulator",
     "Trajectory",
+    "Batch",
+    "BatchTrajectory",
     "SimulationDivergedError",
     "MODELS",
     "NATIVE_MODELS",

@@ -26,7 +26,7 @@ MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
 _STEP_EPS = 1e-9  # fraction of dt forgiven when counting whole steps in an accumulated duration
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _measure(x: np.ndarray, previous: np.ndarray) -> tuple:
     """What :meth:`Simulator._check` tests, in one pass over positions ``x`` (N, 3) m and ``previous`` (N, 3) m (the
     positions before the step): (all finite, largest |coordinate| in m, the largest particle travel in m). The

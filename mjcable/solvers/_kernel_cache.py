@@ -106,3 +106,7 @@ def _register() -> bool:
 CACHE = _register()
 jit = numba.njit(cache=CACHE, error_model="numpy")
 inline = numba.njit(cache=CACHE, error_model="numpy", inline="always")
+#: for the drivers Python calls with real work (whole steps, substeps, the self-contact search): they release the GIL
+#: so that the copies of an :class:`mjcable.Batch` step at once on threads. The small per-step helpers keep it:
+#: every release is a chance for another thread to take the GIL, and a handoff costs more than they run.
+nogil = numba.njit(cache=CACHE, error_model="numpy", nogil=True)

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 
-from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
 # The projections, the direct order and the layout, re-exported: callers keep importing them from here.
 from mjcable.solvers.constraint_kernels import (
     _bend_clamp_sweeps, clamp_sweep, curvature_sweep,  # noqa: F401
@@ -241,7 +241,7 @@ def run_substeps(S, C, n_sub, phase, sub):
     return finite, released
 
 
-@_jit
+@_nogil
 def run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
                       clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind,
                       row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair,
@@ -312,7 +312,7 @@ def _step_checks(x, v, prev, lim):
     return bad == 0.0, far > lim[_L_DISTANCE] or math.sqrt(top) / lim[_L_DT] > lim[_L_SPEED]
 
 
-@_jit
+@_nogil
 def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
                    clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
                    row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo,

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
 
 __all__ = ["find_self_contacts", "contacts_from_mujoco", "proxy_poses", "segment_closest"]
 
@@ -42,7 +42,7 @@ def segment_closest(a, e, f, c, d1d2):
     return s, t
 
 
-@_jit
+@_nogil
 def find_self_contacts(x, reach, pair, sgeo):
     """Pairs of non-adjacent segments (|i − j| ≥ 2, each pair once) whose axes are closer than ``reach`` metres;
     fills ``pair`` (cap, 2) and ``sgeo`` (cap, 5) = [s, t, n] with n the unit normal from segment j to segment i.
