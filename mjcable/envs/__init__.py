@@ -36,12 +36,15 @@ from dm_control.rl import control
 from mjcable import render
 from mjcable import catalog
 from mjcable.envs import base, drape, jaco_unplug, reach_sag, unplug  # noqa: F401  (importing registers the tasks)
+from mjcable.envs.batch import BatchEnv, load_batch
 from mjcable.envs.base import (DEFAULT_CONTROL_TIMESTEP, FAMILY_DEFAULTS, MAX_GRIPPER_SPEED, SUITE, CablePhysics,
                                CableTask, env_defaults)
 from mjcable.envs.workspace import STRETCH_MARGIN, Workspace
 
 __all__ = [
     "load",
+    "load_batch",
+    "BatchEnv",
     "names",
     "record_episode",
     "SUITE",
