@@ -7,10 +7,15 @@ of the machine's load hits all of them. Prints throughput in cable-steps per sec
 the ratio to 1 thread (the issue's bar: 2 threads >= 1.7× 1 thread for ``xpbd`` on an idle 2-core machine) and
 the load average, and checks that copy 0 equals a single :class:`mjcable.Simulator` bit for bit.
 
+``--env TASK`` measures :class:`mjcable.envs.BatchEnv` the same way instead: ``--n`` environments of ``TASK`` on
+the model, ``--seconds`` of control steps of a seeded random policy from ``reset()``, in environment control steps
+per second.
+
 Usage::
 
     python scripts/bench_batch.py                       # xpbd, 32 cables, 1.0 s, threads 1 and 2
     python scripts/bench_batch.py --model joints --seconds 0.2
+    python scripts/bench_batch.py --env reach_sag --n 8 --seconds 1.0
 """
 
 from __future__ import annotations
@@ -59,6 +64,28 @@ def measure(model: str = "xpbd", *, n: int = 32, seconds: float = 1.0, threads=(
             "identical": identical, "load": _load()}
 
 
+def measure_env(task: str, model: str = "xpbd", *, n: int = 8, seconds: float = 1.0, threads=(1, 2),
+                repeats: int = 3) -> dict:
+    """Best wall time of ``seconds`` of control steps (a seeded uniform random policy) of ``load_batch(task, model,
+    n, threads=t)`` from ``reset()``, per ``t``. Returns ``{"times", "throughput" (env control steps/s), "steps"
+    (control steps per environment), "load"}``."""
+    batches = {t: mjcable.envs.load_batch(task, model, n, random=0, threads=t, time_limit=seconds) for t in threads}
+    spec = next(iter(batches.values())).action_spec()
+    steps = int(round(seconds / next(iter(batches.values())).envs[0].control_timestep()))
+    actions = np.random.default_rng(0).uniform(spec.minimum, spec.maximum, (steps, n) + spec.shape)
+    best = {t: math.inf for t in threads}
+    for _ in range(repeats):
+        for t, b in batches.items():
+            b.reset()
+            start = time.perf_counter()
+            for a in actions:
+                b.step(a)
+            best[t] = min(best[t], time.perf_counter() - start)
+    for b in batches.values():
+        b.close()
+    return {"times": best, "throughput": {t: n * steps / best[t] for t in threads}, "steps": steps, "load": _load()}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", action="append", help="model(s) to measure (default xpbd; repeat the flag)")
@@ -66,11 +93,22 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=1.0, help="simulated seconds per run (default 1.0)")
     parser.add_argument("--threads", default="1,2", help="comma-separated thread counts (default 1,2)")
     parser.add_argument("--repeats", type=int, default=3, help="runs per measurement; the best counts (default 3)")
+    parser.add_argument("--env", help="measure mjcable.envs.BatchEnv on this task instead")
     args = parser.parse_args()
     threads = tuple(int(t) for t in args.threads.split(","))
     if args.repeats < 1 or args.n < 1 or min(threads) < 1 or not args.seconds > 0:
         parser.error("--repeats, --n and --threads must be >= 1 and --seconds > 0")
     print(f"{os.cpu_count()} cores, load average {_load()} (1, 5, 15 min) at the start; best of {args.repeats}.\n")
+    if args.env:
+        print("| task | model | environments × control steps | threads | wall time | env steps/s | ratio to 1 thread |")
+        print("|---|---|---:|---:|---:|---:|---:|")
+        for model in args.model or ["xpbd"]:
+            r = measure_env(args.env, model, n=args.n, seconds=args.seconds, threads=threads, repeats=args.repeats)
+            for t in threads:
+                print(f"| {args.env} | {model} | {args.n} × {r['steps']} | {t} | {r['times'][t] * 1e3:.0f} ms | "
+                      f"{r['throughput'][t]:,.1f} | {r['throughput'][t] / r['throughput'][threads[0]]:.2f}× |")
+            print(f"\nload average after {model}: {r['load']}")
+        return
     print("| model | copies × steps | threads | wall time | cable-steps/s | ratio to 1 thread | copy 0 == Simulator |")
     print("|---|---:|---:|---:|---:|---:|---|")
     for model in args.model or ["xpbd"]:

@@ -7,7 +7,9 @@ Prints a markdown table (the README's "Speed" section shows one) of:
 * ``table`` (the same settings): ``step(1.0)`` with the cable lying on the table (every step queries contacts),
   against the kernel plus one ``mj_collision`` per step, on solver state and proxy built like the backend's from
   the simulator's own positions and velocities; and ``step(1.0)`` from the start (the cable falls for 0.2 s first);
-* every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed).
+* every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed);
+* a :class:`mjcable.Batch` of 32 ``table`` cables on ``xpbd`` (defaults): ``step(1.0)`` on 2 threads against 1
+  (:func:`bench_batch.measure`; the issue's bar is 1.7× on an idle 2-core machine).
 
 Every time is the best of ``--repeats`` runs (default 3; the machine may be shared: the table states the load);
 numba compile time is excluded (warm-up calls first, kernels cached on disk).
@@ -29,6 +31,7 @@ import mujoco
 import numba
 import numpy as np
 
+import bench_batch  # scripts/bench_batch.py, beside this script
 import mjcable
 from mjcable import catalog
 from mjcable.mjcf import proxy
@@ -209,6 +212,11 @@ def main() -> None:
           f"{t['reference'] * ms:.2f} ms | {t['sim'] / t['reference']:.2f}× |")
     print(f"| `table`, same settings: `step(1.0)` from the start (falls, then lands) | {t['start'] * ms:.2f} ms | "
           f"| |")
+    b = bench_batch.measure("xpbd", n=32, seconds=SECONDS, threads=(1, 2), repeats=args.repeats)
+    print(f"| `mjcable.Batch` of 32 `table` cables, xpbd (defaults): `step(1.0)` on 2 threads vs 1 (ratio: 1-thread "
+          f"time / 2-thread time; {b['throughput'][2]:,.0f} vs {b['throughput'][1]:,.0f} cable-steps/s; copy 0 "
+          f"{'equals' if b['identical'] else 'DIFFERS FROM'} a Simulator) | {b['times'][2] * ms:.2f} ms | "
+          f"{b['times'][1] * ms:.2f} ms | {b['times'][1] / b['times'][2]:.2f}× |")
     for model, sec in bench_native(args.repeats).items():
         shown = f"{sec * ms:.2f} ms" if isinstance(sec, float) else f"unavailable ({type(sec).__name__})"
         print(f"| `hang`, 50 segments, {model} (native, defaults): `step(1.0)` | {shown} | | |")
