@@ -38,6 +38,7 @@ import numpy as np
 from mjcable.mjcf import world
 from mjcable.scene import Scene
 from mjcable.solvers import kernels
+from mjcable.solvers.contacts import ObstacleContacts
 
 __all__ = ["Host"]
 
@@ -53,10 +54,23 @@ class Host:
       scene: the scene (with a world).
       mj_model, mj_data: the compiled proxy in the user's world; timestep h.
       h: the solver's substep in seconds.
+      obstacles: the cable's contacts with the world's geoms (``None``: none); their moving shapes are refreshed
+        after every host step, and those on dynamic bodies get the contacts' reactions.
+
+    Attributes:
+      impulse: ``(B, 6)`` the contact impulses of the substep per obstacle row, for ``Contacts.impulse``
+        (:func:`~mjcable.solvers.contact_kernels.collect_impulses`); ``(0, 6)`` where no obstacle is on a dynamic
+        body (the kernels then skip the sums).
+      contact_wrench: ``(nbody, 6)`` N, N·m: the last substep's contact force on each body and its moment about the
+        body's centre of mass, as applied through ``xfrc_applied``.
     """
 
-    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, h: float):
+    two_way_contacts = True  # class switch: False leaves the world's bodies without the contacts' reactions (tests)
+
+    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, h: float,
+                 obstacles: Optional[ObstacleContacts] = None):
         self.m, self.d, self.h = mj_model, mj_data, h
+        self.obstacles = obstacles
         self.gravity = scene.gravity
         m = mj_model
         pins = [k for k, pin in enumerate(scene.pins) if pin.kind == "body"]
@@ -72,6 +86,16 @@ class Host:
         self._saved = np.zeros(mujoco.mj_stateSize(m, _STATE))
         self._jacp = np.zeros((3, m.nv))
         self._force = np.zeros((len(pins), 3))
+        self.contact_wrench = np.zeros((m.nbody, 6))
+        self.impulse = np.zeros((0, 6))
+        if obstacles is not None and self.two_way_contacts:
+            body = m.geom_bodyid[obstacles.obstacle_geoms]
+            weld = m.body_weldid[body]
+            dynamic = (weld != 0) & (m.body_mocapid[weld] < 0)  # not welded to the world nor to a mocap body
+            #: obstacle rows on dynamic bodies, and their bodies
+            self._rows, self._row_bodies = np.flatnonzero(dynamic), body[dynamic]
+            if len(self._rows):
+                self.impulse = np.zeros((len(body), 6))
 
     def reset(self, S: kernels.Chain) -> None:
         """After the data's reset: the body pins' targets at their points, the clamps' directions in their bodies."""
@@ -94,6 +118,17 @@ class Host:
             mujoco.mj_solveM(m, d, solved, jn[None])
             out[j] = float(jn @ solved[0])
         return out
+
+    def _contact_reactions(self) -> None:
+        """:attr:`contact_wrench` from the substep's :attr:`impulse`: each dynamic body gets −Σ j / h² at the
+        contacts' points, as a force and its moment about the body's centre of mass (``xipos``)."""
+        rows, bodies = self._rows, self._row_bodies
+        inv_h2 = 1.0 / (self.h * self.h)
+        force = -self.impulse[rows, kernels.IM_F:kernels.IM_F + 3] * inv_h2
+        moment = -self.impulse[rows, kernels.IM_M:kernels.IM_M + 3] * inv_h2  # about the world origin
+        moment -= np.cross(self.d.xipos[bodies], force)
+        self.contact_wrench[:] = 0.0
+        np.add.at(self.contact_wrench, bodies, np.hstack([force, moment]))
 
     def substeps(self, S: kernels.Chain, C: kernels.Contacts, n: int,
                  one_substep: Optional[Callable[[], tuple]] = None) -> tuple:
@@ -123,6 +158,9 @@ class Host:
                 free_w = np.where(w_b > _RIGID, w_b, 0.0)
                 S.w[self.particles] = free_w
             S.pin_to[:] = target
+            two_way = len(self.impulse) > 0
+            if two_way:
+                self.impulse[:] = 0.0
             if one_substep is not None:
                 ok, count = one_substep()
             else:
@@ -140,10 +178,17 @@ class Host:
                 applied[:, :3] = f
                 applied[:, 3:] = np.cross(arm, f)
                 np.add.at(d.xfrc_applied, self.bodies, applied)
+            if two_way:
+                self._contact_reactions()
+                d.xfrc_applied += self.contact_wrench
             mujoco.mj_step(m, d)
             if coupled:
                 np.subtract.at(d.xfrc_applied, self.bodies, applied)
+            if two_way:
+                d.xfrc_applied -= self.contact_wrench
             mujoco.mj_kinematics(m, d)
+            if self.obstacles is not None:
+                self.obstacles.refresh_moving()
             if coupled:
                 p1 = d.site_xpos[self.sites]
                 S.x[self.particles] = p1
