@@ -1,4 +1,5 @@
-"""A user's MuJoCo world as the particle solvers' host: lock-step stepping and two-way coupling through body pins.
+"""A user's MuJoCo world as the particle solvers' host: lock-step stepping, two-way coupling through body pins and
+through the cable's contacts with the world's bodies.
 
 With ``Scene(world=...)`` the particle backend's ``mj_data`` is the user's world with the proxy capsules in it, and
 MuJoCo steps that world (robot, objects, actuators) with ``mj_step`` once per solver substep h = dt / substeps (the
@@ -26,6 +27,34 @@ cable and, in the world's own constraints (contacts, joint limits, other equalit
 the substep; what the body does instead shows up as the next substep's starting mismatch, which the particle then
 follows. With Gauss-Seidel orders, a mass ratio w_b / w_cable far below 1 needs iterations (or ``order="direct"``)
 to carry the body's weight without stretch, as any heavy end mass does.
+
+Two-way contacts. The cable's contacts with the world's geoms (:mod:`mjcable.solvers.contacts`) act on the
+world's dynamic bodies (not welded to the world nor to a mocap body: ``body_weldid`` ≠ 0 and not mocap), once per
+substep:
+
+1. after every host step the moving obstacles' shapes are refreshed (:meth:`ObstacleContacts.refresh_moving`), so
+   the solver's substep meets each body where it is;
+2. the solver's substep treats every obstacle as immovable and sums, per obstacle, the impulses its contacts gave
+   the cable (:func:`~mjcable.solvers.contact_kernels.collect_impulses`): j = Σ_c λₙ_c n_c (normal) + Σ_p f_p
+   (each free particle's friction impulse), in kg·m, so that j / h = Σ m_p Δx_p / h is the momentum the contact
+   projections gave the cable, with its moment about the origin from the contact points;
+3. the real ``mj_step`` applies −j / h² to the body (``xfrc_applied``: the force and its moment about the body's
+   centre of mass ``xipos``), equal and opposite to what the body did to the cable. Self contacts give nothing.
+
+Momentum is exchanged exactly (a box braked by a cable sliding on it keeps M v_box + Σ m_p v_p to 1e-14), but the
+scheme is explicit in the body: it does not move under the contact within the substep and answers in its own step.
+With the cable pinned to the body's surface by the contact (normal contact, sticking friction), the relative velocity
+along the contact is multiplied by −m / M every substep (m the cable mass the contacts move with the body, M the
+body's effective mass 1/(nᵀ J M⁻¹ Jᵀ n) along the contact): stable for m / M < 1, whatever h. Beyond, the normal
+contact chatters (measured, ``scripts/bench_two_way_limit.py``: a 0.1 kg cable lying on a box on a spring settles to
+1e-13 m for m / M ≤ 1, chatters by 2 µm at m / M = 1.25, 0.4 mm at 2 and 3 mm at 5–10, its mean sag still Hooke's
+within 1.1 %), and sticking friction becomes a bounded stick-slip cycle (the cone caps each substep's impulse at
+μ λₙ). Where the world's own constraints hold the body along the contact (a box resting on a table under the cable)
+its effective mass is that of what holds it, and a box 10 times lighter than the cable on it stays at rest. Pins
+keep their scheme above; a pinned particle's contact shares (held particles collect ∇C Δλ) count in j.
+A limit of the friction model, not of the coupling: a particle's friction cone uses the mean of its contacts'
+normals (:mod:`~mjcable.solvers.contact_kernels`), which cancels for a particle squeezed between two opposite
+faces, so two plates squeezing a cable press it (both ways) but do not hold it by friction.
 """
 
 from __future__ import annotations
