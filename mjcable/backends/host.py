@@ -66,7 +66,7 @@ import numpy as np
 
 from mjcable.mjcf import world
 from mjcable.scene import Scene
-from mjcable.solvers import kernels
+from mjcable.solvers import contact_kernels, kernels
 from mjcable.solvers.contacts import ObstacleContacts
 
 __all__ = ["Host"]
@@ -148,17 +148,6 @@ class Host:
             out[j] = float(jn @ solved[0])
         return out
 
-    def _contact_reactions(self) -> None:
-        """:attr:`contact_wrench` from the substep's :attr:`impulse`: each dynamic body gets −Σ j / h² at the
-        contacts' points, as a force and its moment about the body's centre of mass (``xipos``)."""
-        rows, bodies = self._rows, self._row_bodies
-        inv_h2 = 1.0 / (self.h * self.h)
-        force = -self.impulse[rows, kernels.IM_F:kernels.IM_F + 3] * inv_h2
-        moment = -self.impulse[rows, kernels.IM_M:kernels.IM_M + 3] * inv_h2  # about the world origin
-        moment -= np.cross(self.d.xipos[bodies], force)
-        self.contact_wrench[:] = 0.0
-        np.add.at(self.contact_wrench, bodies, np.hstack([force, moment]))
-
     def substeps(self, S: kernels.Chain, C: kernels.Contacts, n: int,
                  one_substep: Optional[Callable[[], tuple]] = None) -> tuple:
         """``n`` solver substeps, each with its host ``mj_step`` and each taken by ``one_substep()`` (default: the
@@ -207,9 +196,9 @@ class Host:
                 applied[:, :3] = f
                 applied[:, 3:] = np.cross(arm, f)
                 np.add.at(d.xfrc_applied, self.bodies, applied)
-            if two_way:
-                self._contact_reactions()
-                d.xfrc_applied += self.contact_wrench
+            if two_way:  # −Σ j / h² on each dynamic body, with its moment about the body's centre of mass
+                contact_kernels.body_wrenches(self.impulse, self._rows, self._row_bodies, d.xipos, -1.0 / (h * h),
+                                              self.contact_wrench, d.xfrc_applied)
             mujoco.mj_step(m, d)
             if coupled:
                 np.subtract.at(d.xfrc_applied, self.bodies, applied)

@@ -55,7 +55,7 @@ from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, FR_FN, FR_
                                             GEOM_SPHERE, SH_POS, SH_ROT, SH_SIZE, SH_TYPE)
 
 __all__ = ["shape_distance", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
-           "reset_friction", "collect_impulses"]
+           "reset_friction", "collect_impulses", "body_wrenches"]
 
 
 @_inline
@@ -413,3 +413,30 @@ def collect_impulses(x, fric, seg, geo, lam, shapes, radius, out):
         norm = math.sqrt(nx * nx + ny * ny + nz * nz)
         r = radius / norm if norm > 0.0 else 0.0
         _add_impulse(out, k, x[p, 0] - r * nx, x[p, 1] - r * ny, x[p, 2] - r * nz, jx, jy, jz)
+
+
+@_jit
+def body_wrenches(impulse, rows, bodies, xipos, scale, wrench, xfrc):
+    """The bodies' side of :func:`collect_impulses`: ``wrench`` (nbody, 6) zeroed, then for obstacle row
+    ``rows[r]`` on body ``bodies[r]`` the force F = ``scale`` · Σ j (scale = −1/h²) and its moment about the body's
+    centre of mass ``xipos[b]``, scale · Σ p × j − xipos × F, added to ``wrench`` and to ``xfrc`` (MuJoCo's
+    ``xfrc_applied``)."""
+    wrench[:] = 0.0
+    for r in range(rows.shape[0]):
+        k, b = rows[r], bodies[r]
+        fx, fy, fz = scale * impulse[k, IM_F], scale * impulse[k, IM_F + 1], scale * impulse[k, IM_F + 2]
+        cx, cy, cz = xipos[b, 0], xipos[b, 1], xipos[b, 2]
+        wrench[b, 0] += fx
+        wrench[b, 1] += fy
+        wrench[b, 2] += fz
+        wrench[b, 3] += scale * impulse[k, IM_M] - (cy * fz - cz * fy)
+        wrench[b, 4] += scale * impulse[k, IM_M + 1] - (cz * fx - cx * fz)
+        wrench[b, 5] += scale * impulse[k, IM_M + 2] - (cx * fy - cy * fx)
+    for r in range(rows.shape[0]):
+        b = bodies[r]
+        first = True
+        for q in range(r):  # a body with several obstacle rows gets its wrench once
+            first = first and bodies[q] != b
+        if first:
+            for col in range(6):
+                xfrc[b, col] += wrench[b, col]
