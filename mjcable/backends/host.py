@@ -1,4 +1,5 @@
-"""A user's MuJoCo world as the particle solvers' host: lock-step stepping and two-way coupling through body pins.
+"""A user's MuJoCo world as the particle solvers' host: lock-step stepping, two-way coupling through body pins and
+through the cable's contacts with the world's bodies.
 
 With ``Scene(world=...)`` the particle backend's ``mj_data`` is the user's world with the proxy capsules in it, and
 MuJoCo steps that world (robot, objects, actuators) with ``mj_step`` once per solver substep h = dt / substeps (the
@@ -26,6 +27,34 @@ cable and, in the world's own constraints (contacts, joint limits, other equalit
 the substep; what the body does instead shows up as the next substep's starting mismatch, which the particle then
 follows. With Gauss-Seidel orders, a mass ratio w_b / w_cable far below 1 needs iterations (or ``order="direct"``)
 to carry the body's weight without stretch, as any heavy end mass does.
+
+Two-way contacts. The cable's contacts with the world's geoms (:mod:`mjcable.solvers.contacts`) act on the
+world's dynamic bodies (not welded to the world nor to a mocap body: ``body_weldid`` ≠ 0 and not mocap), once per
+substep:
+
+1. after every host step the moving obstacles' shapes are refreshed (:meth:`ObstacleContacts.refresh_moving`), so
+   the solver's substep meets each body where it is;
+2. the solver's substep treats every obstacle as immovable and sums, per obstacle, the impulses its contacts gave
+   the cable (:func:`~mjcable.solvers.contact_kernels.collect_impulses`): j = Σ_c λₙ_c n_c (normal) + Σ_p f_p
+   (each free particle's friction impulse), in kg·m, so that j / h = Σ m_p Δx_p / h is the momentum the contact
+   projections gave the cable, with its moment about the origin from the contact points;
+3. the real ``mj_step`` applies −j / h² to the body (``xfrc_applied``: the force and its moment about the body's
+   centre of mass ``xipos``), equal and opposite to what the body did to the cable. Self contacts give nothing.
+
+Momentum is exchanged exactly (a box braked by a cable sliding on it keeps M v_box + Σ m_p v_p to 1e-14), but the
+scheme is explicit in the body: it does not move under the contact within the substep and answers in its own step.
+With the cable pinned to the body's surface by the contact (normal contact, sticking friction), the relative velocity
+along the contact is multiplied by −m / M every substep (m the cable mass the contacts move with the body, M the
+body's effective mass 1/(nᵀ J M⁻¹ Jᵀ n) along the contact): stable for m / M < 1, whatever h. Beyond, the normal
+contact chatters (measured, ``scripts/bench_two_way_limit.py``: a 0.1 kg cable lying on a box on a spring settles to
+1e-13 m for m / M ≤ 1, chatters by 2 µm at m / M = 1.25, 0.4 mm at 2 and 3 mm at 5–10, its mean sag still Hooke's
+within 1.1 %), and sticking friction becomes a bounded stick-slip cycle (the cone caps each substep's impulse at
+μ λₙ). Where the world's own constraints hold the body along the contact (a box resting on a table under the cable)
+its effective mass is that of what holds it, and a box 10 times lighter than the cable on it stays at rest. Pins
+keep their scheme above; a pinned particle's contact shares (held particles collect ∇C Δλ) count in j.
+A limit of the friction model, not of the coupling: a particle's friction cone uses the mean of its contacts'
+normals (:mod:`~mjcable.solvers.contact_kernels`), which cancels for a particle squeezed between two opposite
+faces, so two plates squeezing a cable press it (both ways) but do not hold it by friction.
 """
 
 from __future__ import annotations
@@ -37,7 +66,8 @@ import numpy as np
 
 from mjcable.mjcf import world
 from mjcable.scene import Scene
-from mjcable.solvers import kernels
+from mjcable.solvers import contact_kernels, kernels
+from mjcable.solvers.contacts import ObstacleContacts
 
 __all__ = ["Host"]
 
@@ -53,10 +83,23 @@ class Host:
       scene: the scene (with a world).
       mj_model, mj_data: the compiled proxy in the user's world; timestep h.
       h: the solver's substep in seconds.
+      obstacles: the cable's contacts with the world's geoms (``None``: none); their moving shapes are refreshed
+        after every host step, and those on dynamic bodies get the contacts' reactions.
+
+    Attributes:
+      impulse: ``(B, 6)`` the contact impulses of the substep per obstacle row, for ``Contacts.impulse``
+        (:func:`~mjcable.solvers.contact_kernels.collect_impulses`); ``(0, 6)`` where no obstacle is on a dynamic
+        body (the kernels then skip the sums).
+      contact_wrench: ``(nbody, 6)`` N, N·m: the last substep's contact force on each body and its moment about the
+        body's centre of mass, as applied through ``xfrc_applied``.
     """
 
-    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, h: float):
+    two_way_contacts = True  # class switch: False leaves the world's bodies without the contacts' reactions (tests)
+
+    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, h: float,
+                 obstacles: Optional[ObstacleContacts] = None):
         self.m, self.d, self.h = mj_model, mj_data, h
+        self.obstacles = obstacles
         self.gravity = scene.gravity
         m = mj_model
         pins = [k for k, pin in enumerate(scene.pins) if pin.kind == "body"]
@@ -72,6 +115,16 @@ class Host:
         self._saved = np.zeros(mujoco.mj_stateSize(m, _STATE))
         self._jacp = np.zeros((3, m.nv))
         self._force = np.zeros((len(pins), 3))
+        self.contact_wrench = np.zeros((m.nbody, 6))
+        self.impulse = np.zeros((0, 6))
+        if obstacles is not None and self.two_way_contacts:
+            body = m.geom_bodyid[obstacles.obstacle_geoms]
+            weld = m.body_weldid[body]
+            dynamic = (weld != 0) & (m.body_mocapid[weld] < 0)  # not welded to the world nor to a mocap body
+            #: obstacle rows on dynamic bodies, and their bodies
+            self._rows, self._row_bodies = np.flatnonzero(dynamic), body[dynamic]
+            if len(self._rows):
+                self.impulse = np.zeros((len(body), 6))
 
     def reset(self, S: kernels.Chain) -> None:
         """After the data's reset: the body pins' targets at their points, the clamps' directions in their bodies."""
@@ -123,6 +176,9 @@ class Host:
                 free_w = np.where(w_b > _RIGID, w_b, 0.0)
                 S.w[self.particles] = free_w
             S.pin_to[:] = target
+            two_way = len(self.impulse) > 0
+            if two_way:
+                self.impulse[:] = 0.0
             if one_substep is not None:
                 ok, count = one_substep()
             else:
@@ -140,10 +196,17 @@ class Host:
                 applied[:, :3] = f
                 applied[:, 3:] = np.cross(arm, f)
                 np.add.at(d.xfrc_applied, self.bodies, applied)
+            if two_way:  # −Σ j / h² on each dynamic body, with its moment about the body's centre of mass
+                contact_kernels.body_wrenches(self.impulse, self._rows, self._row_bodies, d.xipos, -1.0 / (h * h),
+                                              self.contact_wrench, d.xfrc_applied)
             mujoco.mj_step(m, d)
             if coupled:
                 np.subtract.at(d.xfrc_applied, self.bodies, applied)
+            if two_way:
+                d.xfrc_applied -= self.contact_wrench
             mujoco.mj_kinematics(m, d)
+            if self.obstacles is not None:
+                self.obstacles.refresh_moving()
             if coupled:
                 p1 = d.site_xpos[self.sites]
                 S.x[self.particles] = p1

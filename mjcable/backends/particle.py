@@ -98,11 +98,11 @@ class ParticleBackend:
         first = int(self._sites[0])
         contiguous = np.array_equal(self._sites, np.arange(first, first + n_particles))
         self._site_pos = self.mj_data.site_xpos[first:first + n_particles] if contiguous else None
-        self._host = Host(scene, m, self.mj_data, self.h) if scene.world is not None else None
         self._start_pose()
         ours = slice(0 if scene.world is None else scene.world.model.npair, m.npair)
         self._obstacles = ObstacleContacts(scene, m, self.mj_data, self._segment_geoms, ours) if m.npair > ours.start \
             else None
+        self._host = Host(scene, m, self.mj_data, self.h, self._obstacles) if scene.world is not None else None
         self._self_pair = np.zeros((_SELF_CONTACT_CAPACITY * n, 2), dtype=np.int64)
         self._self_geo = np.zeros((_SELF_CONTACT_CAPACITY * n, 5))
         self._gravity = float(np.linalg.norm(self.mj_model.opt.gravity))  # m/s²
@@ -139,6 +139,8 @@ class ParticleBackend:
             self._host.reset(self.state)
         self._posed = False
         self.contacts = empty_contacts(shapes=None if self._obstacles is None else self._obstacles.shapes)
+        if self._host is not None:  # the contacts' impulses on the world's bodies (none for static obstacles)
+            self.contacts = self.contacts._replace(impulse=self._host.impulse)
         self.released = set()
         self.last_contact_count = 0
         self.last_self_contact_count = 0

@@ -50,12 +50,12 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, FR_FN, FR_FT, FR_GN, FR_MU, FR_NX, FR_OB,
-                                            FR_SLID,
+                                            FR_SLID, IM_F, IM_M,
                                             GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE,
                                             GEOM_SPHERE, SH_POS, SH_ROT, SH_SIZE, SH_TYPE)
 
 __all__ = ["shape_distance", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
-           "reset_friction"]
+           "reset_friction", "collect_impulses", "body_wrenches"]
 
 
 @_inline
@@ -368,3 +368,75 @@ def self_contact_sweep(x, x0, w, react, pair, sgeo, gap, mu, lam):
         dlam_t = min(slip / wsum, budget)
         lam[c, 1] += dlam_t
         _move_pair(x, w, react, i, j, a0, a1, b0, b1, -dlam_t / slip, tx, ty, tz)
+
+
+@_inline
+def _add_impulse(out, k, px, py, pz, jx, jy, jz):
+    """Add the impulse j (kg·m) at the point p to obstacle row ``k`` of ``out`` (B, 6): [Σ j, Σ p × j]."""
+    out[k, IM_F] += jx
+    out[k, IM_F + 1] += jy
+    out[k, IM_F + 2] += jz
+    out[k, IM_M] += py * jz - pz * jy
+    out[k, IM_M + 1] += pz * jx - px * jz
+    out[k, IM_M + 2] += px * jy - py * jx
+
+
+@_jit
+def collect_impulses(x, fric, seg, geo, lam, shapes, radius, out):
+    """End of a substep, before :func:`update_anchors`: add each obstacle's contact impulses on the cable in this
+    substep to its row of ``out`` (B, 6) = [Σ j, Σ point × j] (kg·m and kg·m², about the world origin; the
+    caller zeroes it). Normal: contact c's Σ Δλₙ (``lam``) along its normal at the axis point now (the cable
+    side's ∇C Δλ summed over both particles, held ones included); friction: each free particle's friction
+    impulse (``fric``'s FR_FT) on the obstacle of its last contact (FR_OB), at its contact point x − r n̂. Σ j / h
+    is the momentum the obstacle gave the cable (Σ m Δx for free particles), −Σ j / h² the force on the obstacle.
+    Self contacts are internal and give nothing."""
+    for c in range(seg.shape[0]):
+        k = int(geo[c, 6])
+        if k < 0 or lam[c] == 0.0:
+            continue
+        i = seg[c]
+        s = geo[c, 0]
+        px = (1.0 - s) * x[i, 0] + s * x[i + 1, 0]
+        py = (1.0 - s) * x[i, 1] + s * x[i + 1, 1]
+        pz = (1.0 - s) * x[i, 2] + s * x[i + 1, 2]
+        _, nx, ny, nz = shape_distance(px, py, pz, shapes, k, geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4], radius)
+        g = lam[c]
+        _add_impulse(out, k, px, py, pz, g * nx, g * ny, g * nz)
+    for p in range(x.shape[0]):
+        k = int(fric[p, FR_OB])
+        if fric[p, FR_FN] <= 0.0 or k < 0:
+            continue
+        jx, jy, jz = fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2]
+        if jx == 0.0 and jy == 0.0 and jz == 0.0:
+            continue
+        nx, ny, nz = fric[p, FR_GN], fric[p, FR_GN + 1], fric[p, FR_GN + 2]
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        r = radius / norm if norm > 0.0 else 0.0
+        _add_impulse(out, k, x[p, 0] - r * nx, x[p, 1] - r * ny, x[p, 2] - r * nz, jx, jy, jz)
+
+
+@_jit
+def body_wrenches(impulse, rows, bodies, xipos, scale, wrench, xfrc):
+    """The bodies' side of :func:`collect_impulses`: ``wrench`` (nbody, 6) zeroed, then for obstacle row
+    ``rows[r]`` on body ``bodies[r]`` the force F = ``scale`` · Σ j (scale = −1/h²) and its moment about the body's
+    centre of mass ``xipos[b]``, scale · Σ p × j − xipos × F, added to ``wrench`` and to ``xfrc`` (MuJoCo's
+    ``xfrc_applied``)."""
+    wrench[:] = 0.0
+    for r in range(rows.shape[0]):
+        k, b = rows[r], bodies[r]
+        fx, fy, fz = scale * impulse[k, IM_F], scale * impulse[k, IM_F + 1], scale * impulse[k, IM_F + 2]
+        cx, cy, cz = xipos[b, 0], xipos[b, 1], xipos[b, 2]
+        wrench[b, 0] += fx
+        wrench[b, 1] += fy
+        wrench[b, 2] += fz
+        wrench[b, 3] += scale * impulse[k, IM_M] - (cy * fz - cz * fy)
+        wrench[b, 4] += scale * impulse[k, IM_M + 1] - (cz * fx - cx * fz)
+        wrench[b, 5] += scale * impulse[k, IM_M + 2] - (cx * fy - cy * fx)
+    for r in range(rows.shape[0]):
+        b = bodies[r]
+        first = True
+        for q in range(r):  # a body with several obstacle rows gets its wrench once
+            first = first and bodies[q] != b
+        if first:
+            for col in range(6):
+                xfrc[b, col] += wrench[b, col]

@@ -92,6 +92,12 @@ class ObstacleContacts:
         self.mj_model.pair_margin[self.pairs] = _PAIRS_OFF
         self._margin = None
 
+    def refresh_moving(self) -> None:
+        """The moving obstacles' shapes from ``mj_data``'s current geom poses (a user world's host calls it after
+        each of its steps, so that the cable meets its bodies where they are in every substep)."""
+        if len(self._moving):
+            self._refresh_shapes(self._moving)
+
     def _refresh_shapes(self, geoms: np.ndarray) -> None:
         d = self.mj_data
         rows = self.shape_of_geom[geoms]

@@ -48,7 +48,8 @@ from mjcable.solvers.constraint_kernels import (
     stretch_step, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
 )
 from mjcable.solvers.contact_kernels import (
-    contact_sweep, friction_sweep, self_contact_sweep, shape_distance, update_anchors,  # noqa: F401
+    collect_impulses, contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
+    update_anchors,  # noqa: F401
 )
 from mjcable.solvers.direct_kernels import (
     _DIRECT_CONTRACTION, _DIRECT_MAX_SOLVES, _DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,  # noqa: F401
@@ -61,7 +62,7 @@ from mjcable.solvers.kernels_layout import (
     _F_MU_SELF, _L_DISTANCE, _L_DT, _L_FALL, _L_MARGIN, _L_RADIUS, _L_SPEED, _TINY_LENGTH, _TINY_SLIP,  # noqa: F401
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, FP, IP, LIM, N_FP, N_IP, ORDER_DIRECT,  # noqa: F401
     ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PHASE_ALL, PHASE_BEGIN, PHASE_END, PHASE_ITERATE, ROW_CLAMP,  # noqa: F401
-    ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH, Chain, Contacts, N_FR, N_SH,  # noqa: F401
+    ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH, Chain, Contacts, IM_F, IM_M, N_FR, N_SH,  # noqa: F401
     SH_POS, SH_ROT, SH_SIZE, SH_TYPE,  # noqa: F401
 )
 
@@ -190,6 +191,8 @@ def end_substep(S, C):
     inv_h2 = inv_h * inv_h
     x, v, x0 = S.x, S.v, S.x0
     if C.shapes.shape[0]:
+        if C.impulse.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
+            collect_impulses(x, S.fric, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS], C.impulse)
         update_anchors(x, S.fric, S.anchor, S.anchor_ob, C.shapes)
     for p in range(x.shape[0]):
         v[p, 0] = (x[p, 0] - x0[p, 0]) * inv_h
@@ -245,13 +248,13 @@ def run_substeps(S, C, n_sub, phase, sub):
 def run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
                       clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind,
                       row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair,
-                      sgeo, slam, shapes, n_sub, phase, sub):
+                      sgeo, slam, shapes, impulse, n_sub, phase, sub):
     """:func:`run_substeps` with the state's arrays as separate arguments (``*chain, *contacts, n_sub, phase,
     sub``): numba types plain array arguments in C but a named tuple of 40 arrays in Python (about 25 µs a call)."""
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
               clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
               row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
-    C = Contacts(seg, geo, lam, pair, sgeo, slam, shapes)
+    C = Contacts(seg, geo, lam, pair, sgeo, slam, shapes, impulse)
     return run_substeps(S, C, n_sub, phase, sub)
 
 
@@ -316,7 +319,7 @@ def _step_checks(x, v, prev, lim):
 def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
                    clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
                    row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo,
-                   slam, shapes, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev, rows, out_x, out_v,
+                   slam, shapes, impulse, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev, rows, out_x, out_v,
                    clock):
     """Up to ``n_steps`` whole steps of ``n_sub`` substeps (:func:`run_substeps`) in one call (``*chain,
     *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones none. After each
@@ -333,8 +336,8 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
               clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
               row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
-    given = Contacts(seg, geo, lam, pair, sgeo, slam, shapes)
-    none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0], shapes)
+    given = Contacts(seg, geo, lam, pair, sgeo, slam, shapes, impulse)
+    none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0], shapes, impulse)
     obstacles = box_lo.shape[0] + plane_n.shape[0] > 0
     released, stored = 0, 0
     for k in range(n_steps):

@@ -58,4 +58,8 @@ Contacts = namedtuple("Contacts", [
     "seg", "geo", "lam",  # obstacle contacts: segment (C,), [s, n₀ (3), offset, μ, shape row] (C, 7), λₙ (C,)
     "pair", "sgeo", "slam",  # self contacts: segments (S, 2), [s, t, nx, ny, nz] (S, 5), [λₙ, λ_t] (S, 2)
     "shapes",  # the obstacles' shapes (B, N_SH)
+    "impulse",  # per obstacle row, the substep's contact impulse on the cable (B, 6) or (0, 6) to skip it: IM_*
 ])
+# Columns of Contacts.impulse (B, 6), summed over a substep by contact_kernels.collect_impulses: Σ Δλ ∇C (kg·m;
+# ÷ h is the momentum the contacts gave the cable, ÷ h² the force), and its moment Σ point × impulse about the origin.
+IM_F, IM_M = 0, 3

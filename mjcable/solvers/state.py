@@ -173,4 +173,5 @@ def empty_contacts(capacity: int = 0, shapes: Optional[np.ndarray] = None) -> ke
     return kernels.Contacts(seg=np.zeros(capacity, dtype=np.int64), geo=np.zeros((capacity, 7)),
                             lam=np.zeros(capacity), pair=np.zeros((0, 2), dtype=np.int64),
                             sgeo=np.zeros((0, 5)), slam=np.zeros((0, 2)),
-                            shapes=np.zeros((0, kernels.N_SH)) if shapes is None else shapes)
+                            shapes=np.zeros((0, kernels.N_SH)) if shapes is None else shapes,
+                            impulse=np.zeros((0, 6)))

@@ -1,0 +1,166 @@
+"""Two-way contacts of the particle solvers in a user world (issue 10): the world's bodies feel the cable through
+its contacts (:mod:`mjcable.backends.host`), normal and friction, as equal and opposite forces.
+
+Physics references, measured in MuJoCo's own terms:
+
+* statics: a box on a table carrying a cable that lies on its top presses the table with (M + m) g (MuJoCo's
+  contact force, ``mj_contactForce``); a box held up by a spring sags by (M + m) g / k;
+* kinetic friction: a box sliding on a frictionless slide under a cable at rest decelerates at μ m g / M while
+  the cable slides on it, and the momentum M v_box + Σ m_p v_p stays M v₀ (Newton's third law);
+
+each checked to fail without the coupling (``Host.two_way_contacts = False``: the box then carries only its own
+weight, and slides on at v₀ under a cable that it carries along with friction).
+"""
+
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjcable import CableSpec, Scene, Simulator
+from mjcable.backends.host import Host
+
+SOLVERS = ("xpbd", "pbd", "jakobsen")
+G = 9.81
+HALF, RADIUS, CABLE_MASS, MU = 0.1, 0.005, 0.1, 0.3
+
+
+def _sim(xml: str, model: str, **kw) -> Simulator:
+    # a straight cable lying on the box's top (z = 2 HALF), well inside its edges, so that the box carries all of it
+    z = 2 * HALF + RADIUS
+    cable = CableSpec([[-0.06, 0, z], [0.06, 0, z]], 12, RADIUS, CABLE_MASS, friction=MU)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return Simulator(Scene(cable, (), world=mujoco.MjSpec.from_string(xml)), model, dt=0.002, **kw)
+
+
+def _without_two_way(monkeypatch) -> None:
+    monkeypatch.setattr(Host, "two_way_contacts", False)
+
+
+# ---------------------------------------------------------------------------------------------------------- weight
+
+BOX_MASS = 0.5
+TABLE_XML = f"""<mujoco><worldbody>
+  <geom name="table" type="box" size="0.5 0.5 0.05" pos="0 0 -0.05"/>
+  <body name="box" pos="0 0 {HALF}"><freejoint/>
+    <geom name="box" type="box" size="{HALF} {HALF} {HALF}" mass="{BOX_MASS}"/></body>
+  </worldbody></mujoco>"""
+
+
+def _table_load(sim: Simulator, steps: int = 25) -> float:
+    """N: the table's normal force on the box (MuJoCo's contact forces between the two), averaged over steps."""
+    m, d = sim.mj_model, sim.mj_data
+    table, box = m.geom("table").id, m.geom("box").id
+    f6 = np.zeros(6)
+    total = 0.0
+    for _ in range(steps):
+        sim.step()
+        for i in range(d.ncon):
+            if {int(d.contact.geom1[i]), int(d.contact.geom2[i])} == {table, box}:
+                mujoco.mj_contactForce(m, d, i, f6)
+                total += f6[0]
+    return total / steps
+
+
+@pytest.mark.parametrize("model", SOLVERS)
+def test_a_box_carries_the_weight_of_a_cable_lying_on_it(model):
+    sim = _sim(TABLE_XML, model)
+    sim.step(0.5)
+    load = _table_load(sim)
+    weight = (BOX_MASS + CABLE_MASS) * G
+    assert load == pytest.approx(weight, rel=0.02), f"{model}: table load {load:.4f} N, (M + m) g {weight:.4f} N"
+    # the cable rests on the box's top
+    top = sim.mj_data.body("box").xpos[2] + HALF
+    assert np.allclose(sim.positions[:, 2], top + RADIUS, atol=1e-4)
+
+
+def test_without_two_way_contacts_the_box_carries_only_itself(monkeypatch):
+    _without_two_way(monkeypatch)
+    sim = _sim(TABLE_XML, "xpbd")
+    sim.step(0.5)
+    load = _table_load(sim)
+    assert load == pytest.approx(BOX_MASS * G, rel=0.02)  # the reference above is missed by m / (M + m) = 17 %
+    assert abs(load - (BOX_MASS + CABLE_MASS) * G) > 0.1 * (BOX_MASS + CABLE_MASS) * G
+
+
+SPRING_K = 200.0  # N/m
+
+
+def _spring_xml(mass: float) -> str:
+    return f"""<mujoco><worldbody>
+  <body name="box" pos="0 0 {HALF}"><joint name="lift" type="slide" axis="0 0 1" stiffness="{SPRING_K}" damping="5"/>
+    <geom name="box" type="box" size="{HALF} {HALF} {HALF}" mass="{mass}"/></body>
+  </worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("mass", [0.5, 0.125])
+def test_a_box_on_a_spring_sags_under_the_cable_on_it(mass):
+    """Hooke: the box sinks by (M + m) g / k, also for a box only 1.25 times the cable's mass (inside the explicit
+    coupling's limit m / M < 1, see mjcable.backends.host), and comes to rest."""
+    sim = _sim(_spring_xml(mass), "xpbd")
+    sim.step(1.5)
+    sag = []
+    for _ in range(25):
+        sim.step()
+        sag.append(-sim.mj_data.joint("lift").qpos[0])
+    expected = (mass + CABLE_MASS) * G / SPRING_K
+    assert np.mean(sag) == pytest.approx(expected, rel=0.01)
+    assert np.std(sag) < 1e-3 * expected
+
+
+# -------------------------------------------------------------------------------------------------------- friction
+
+V0 = 0.3  # m/s
+
+
+def _slide_xml(mass: float) -> str:
+    # a frictionless slide joint carries the box (and everything on it) vertically
+    return f"""<mujoco><worldbody>
+  <body name="box" pos="0 0 {HALF}"><joint name="slide" type="slide" axis="1 0 0"/>
+    <geom name="box" type="box" size="{HALF} {HALF} {HALF}" mass="{mass}" friction="{MU}"/></body>
+  </worldbody></mujoco>"""
+
+
+def _slide(model: str, mass: float, duration: float = 0.2) -> tuple:
+    """The box sent off at V0 under a cable at rest: times, box velocity and the cable's mean velocity (along x),
+    and the momentum along x, for ``duration`` s."""
+    sim = _sim(_slide_xml(mass), model)
+    sim.step(0.05)  # the cable settles on the box
+    sim.mj_data.joint("slide").qvel[0] = V0
+    masses = sim.particle_masses
+    t, box, cable, momentum = [], [], [], []
+    for _ in range(int(round(duration / sim.dt))):
+        sim.step()
+        v = sim.velocities[:, 0]
+        t.append(sim.time)
+        box.append(sim.mj_data.joint("slide").qvel[0])
+        cable.append(float(masses @ v) / float(masses.sum()))
+        momentum.append(mass * box[-1] + float(masses @ v))
+    return tuple(map(np.array, (t, box, cable, momentum)))
+
+
+@pytest.mark.parametrize("model", SOLVERS)
+def test_a_cable_sliding_on_a_box_brakes_it_with_kinetic_friction(model):
+    mass = 0.5
+    t, box, cable, momentum = _slide(model, mass)
+    sliding = box - cable > 0.05 * V0
+    assert sliding.sum() > 10
+    # the box's deceleration while the cable slides on it: μ m g / M (a straight line through the sliding phase)
+    decel = -np.polyfit(t[sliding][2:], box[sliding][2:], 1)[0]
+    expected = MU * CABLE_MASS * G / mass
+    assert decel == pytest.approx(expected, rel=0.05), f"{model}: box decelerates at {decel:.4f}, μmg/M {expected:.4f}"
+    # equal and opposite: momentum kept, and both end at the common velocity M v₀ / (M + m)
+    np.testing.assert_allclose(momentum, mass * V0, rtol=0.01)
+    assert box[-1] == pytest.approx(mass * V0 / (mass + CABLE_MASS), rel=0.01)
+    assert cable[-1] == pytest.approx(box[-1], rel=0.01)
+
+
+def test_without_two_way_contacts_a_sliding_box_is_not_braked(monkeypatch):
+    _without_two_way(monkeypatch)
+    mass = 0.5
+    _, box, cable, momentum = _slide("xpbd", mass)
+    assert box[-1] == pytest.approx(V0, rel=1e-6)  # the cable's friction never reaches the box
+    assert cable[-1] == pytest.approx(V0, rel=0.01)  # though it carries the cable along: momentum is made
+    assert momentum[-1] > 1.1 * mass * V0
