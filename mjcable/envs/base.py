@@ -6,8 +6,9 @@ the Simulator, so the native models (stepped by MuJoCo) and the particle solvers
 the rigid scene and the proxy capsules by MuJoCo) run, observe and render alike. ``physics.timestep()`` is the
 Simulator's ``dt``; one control step is ``control_timestep / dt`` Simulator steps, and the grippers move a
 ``1 / n``-th of their commanded displacement before each of them, clamped to the task's :class:`Workspace`. The
-clamped positions of all ``n`` steps come from one compiled call (:meth:`Workspace.paths`); the control step then
-runs no Python per step beyond one ``move_gripper`` per moving gripper and the Simulator's own step.
+clamped positions of all ``n`` steps come from one compiled call (:meth:`Workspace.paths`) and go to
+:meth:`mjcable.Simulator.step_along`, so the control step runs no Python per step: the particle solvers take it in
+one compiled loop (Python only around contact queries), the native models one MuJoCo step after another.
 
 The Physics keeps no copy of the Simulator's state: positions, velocities (the model's own), gripper targets and
 released sockets are read from :attr:`CablePhysics.simulator` when asked for, and the pins that are not grippers
@@ -193,9 +194,9 @@ class CablePhysics(mujoco.Physics):
         before each.
 
         The grippers' clamped positions after every step are computed in one call (:meth:`Workspace.paths`), again
-        for the remaining steps if a socket lets go part way (its tether then no longer holds); a gripper that does
-        not move in a step is not sent anywhere, and steps with no gripper moving run as one
-        :meth:`mjcable.Simulator.step`.
+        for the remaining steps if a socket lets go part way (its tether then no longer holds), and the steps run in
+        one :meth:`mjcable.Simulator.step_along` (a gripper that does not move in a step is not sent anywhere);
+        with no gripper commanded, in one :meth:`mjcable.Simulator.step`.
 
         Raises:
           mjcable.SimulationDivergedError: the simulation diverged.
@@ -219,31 +220,17 @@ class CablePhysics(mujoco.Physics):
             sim.step()
 
     def _step_moving(self, commands: Dict[int, np.ndarray], nstep: int) -> None:
+        """``nstep`` steps with the grippers on their clamped paths (:meth:`Workspace.paths`), taken by
+        :meth:`mjcable.Simulator.step_along`; while a socket holds, the Simulator stops after a step in which one
+        lets go, and the rest of the path is recomputed without its tether."""
         sim, grippers = self._sim, list(commands)
         done = 0
         while done < nstep:
             released = sim.released
-            watch = not released.issuperset(self._sockets)  # a socket may let go: check after every step
-            path, moved = self._workspace.paths(commands, nstep, self.pin_positions(), self._engaged(released),
-                                                steps=nstep - done)
-            moved = moved.tolist()  # (steps, grippers): whether a gripper goes anywhere
-            i, count = 0, len(path)
-            while i < count:
-                if any(moved[i]):
-                    for g, k in enumerate(grippers):
-                        if moved[i][g]:
-                            sim.move_gripper(k, path[i, g])
-                    sim.step()
-                    i += 1
-                else:  # steps where no gripper moves: at once, unless a socket may let go in between
-                    j = i + 1
-                    while not watch and j < count and not any(moved[j]):
-                        j += 1
-                    self._advance(j - i)
-                    i = j
-                if watch and sim.released != released:
-                    break  # a socket let go: its tether no longer holds the rest of the path
-            done += i
+            watch = not released.issuperset(self._sockets)
+            path, _ = self._workspace.paths(commands, nstep, self.pin_positions(), self._engaged(released),
+                                            steps=nstep - done)
+            done += sim.step_along(path, pins=grippers, until_release=watch)
 
     def render(self, height=240, width=320, camera_id=-1, overlays=(), depth=False, segmentation=False,
                scene_option=None, render_flag_overrides=None, scene_callback=None) -> np.ndarray:
