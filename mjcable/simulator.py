@@ -97,6 +97,8 @@ class Simulator:
         self.model = model
         self.family = entry.family
         self._backend = entry.backend(scene, entry, self.dt, self.settings)
+        n = scene.cable.n_particles
+        self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
         self._start_steps()
 
     def _start_steps(self) -> None:
@@ -220,8 +222,9 @@ class Simulator:
         while done < count:
             rest = None if path is None else (path[0], path[1][done:])
             k, recorded, reason, previous = self._backend.run(
-                count - done, max_distance=MAX_DISTANCE, max_speed=MAX_SPEED, rows=rows[stored:] - done,
-                out_x=out_x[stored:], out_v=out_v[stored:], path=rest, until_release=until_release)
+                count - done, max_distance=MAX_DISTANCE, max_speed=MAX_SPEED,
+                rows=rows[stored:] - done if len(rows) else rows, out_x=out_x[stored:], out_v=out_v[stored:],
+                path=rest, until_release=until_release)
             done += k
             stored += recorded
             self._steps += k
@@ -243,8 +246,8 @@ class Simulator:
         """
         count = self._count(seconds)
         if self._in_kernel(count):
-            none = np.zeros((0,) + self._positions.shape)
-            self._run(count, np.zeros(0, dtype=np.int64), none, none)
+            rows, none = self._no_rows
+            self._run(count, rows, none, none)
             return
         for _ in range(count):
             self._advance()
@@ -289,8 +292,8 @@ class Simulator:
             raise ValueError(f"path must be finite, got {path!r}")
         count = len(targets)
         if self._in_kernel(count):  # the backend sends every gripper to its row (where it is: it stays, bit for bit)
-            none = np.zeros((0,) + self._positions.shape)
-            return self._run(count, np.zeros(0, dtype=np.int64), none, none, (pins, targets), bool(until_release))
+            rows, none = self._no_rows
+            return self._run(count, rows, none, none, (pins, targets), bool(until_release))
         moved = np.empty(targets.shape[:2], dtype=bool)  # (steps, G): whether a gripper's row differs from its last
         if count:
             positions = self._backend.gripper_positions()

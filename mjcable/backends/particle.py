@@ -94,6 +94,10 @@ class ParticleBackend:
         self._mocap_of_pin = dict(zip(scene.grippers, self._gripper_mocap.tolist()))
         self._pin_mocap = np.full(len(scene.pins), -1, dtype=np.int64)  # pin -> its gripper's mocap id (-1: none)
         self._pin_mocap[list(scene.grippers)] = self._gripper_mocap
+        first = int(self._gripper_mocap[0]) if len(self._gripper_mocap) else 0
+        self._gripper_rows = (slice(first, first + len(self._gripper_mocap))  # a slice copies faster than an index
+                              if np.array_equal(self._gripper_mocap, np.arange(first, first + len(self._gripper_mocap)))
+                              else self._gripper_mocap)
         # views into mj_data, taken once (MjData's buffers do not move): the proxy's poses are written in place
         self._pose_pos = self.mj_data.mocap_pos[:n]
         self._pose_quat = self.mj_data.mocap_quat[:n]
@@ -323,7 +327,7 @@ class ParticleBackend:
         return self.state.mass.copy()
 
     def gripper_positions(self) -> np.ndarray:
-        return self.mj_data.mocap_pos[self._gripper_mocap].copy()
+        return self.mj_data.mocap_pos[self._gripper_rows].copy()
 
     def move_gripper(self, k: int, position: np.ndarray) -> None:
         """Move the gripper of ``scene.pins[k]`` to ``position`` (3,) m: its particle reaches it linearly over the

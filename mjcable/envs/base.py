@@ -140,6 +140,8 @@ class CablePhysics(mujoco.Physics):
         anchors = [scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
         self._anchors = np.array(anchors, dtype=np.float64).reshape(-1, 3)  # the pins' start particles (the scene's)
         self._anchors.setflags(write=False)
+        self._gripper_rows = np.array(self._grippers, dtype=np.int64)  # rows of pin_positions that grippers fill
+        self._engaged_by = {}  # released sockets -> (n_pins,) bool, read-only: pins_engaged without rebuilding it
         self._reload_from_data(wrapper.MjData(simulator.mj_data))
 
     # --- episodes -------------------------------------------------------------------------------------------------
@@ -288,17 +290,21 @@ class CablePhysics(mujoco.Physics):
         """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the other pins
         (world pins, sockets) at their start particles."""
         pins = self._anchors.copy()
-        pins[self._grippers] = self._sim.gripper_positions
+        pins[self._gripper_rows] = self._sim.gripper_positions
         return pins
 
     def pins_engaged(self) -> np.ndarray:
         """``(n_pins,)`` bool: whether each pin still holds the cable (a released socket does not)."""
-        return self._engaged(self._sim.released)
+        return self._engaged(self._sim.released).copy()
 
     def _engaged(self, released: frozenset) -> np.ndarray:
-        engaged = np.ones(len(self._anchors), dtype=bool)
-        if released:
+        """:meth:`pins_engaged` for ``released``, read-only (built once per set of released sockets)."""
+        engaged = self._engaged_by.get(released)
+        if engaged is None:
+            engaged = np.ones(len(self._anchors), dtype=bool)
             engaged[list(released)] = False
+            engaged.setflags(write=False)
+            self._engaged_by[released] = engaged
         return engaged
 
 
@@ -328,6 +334,8 @@ class CableTask(base.Task):
         self._max_step = MAX_GRIPPER_SPEED * control_timestep
         self._action_spec = specs.BoundedArray((3 * len(self.controlled),), np.float64, -self._max_step,
                                                self._max_step, name="gripper_displacement")
+        self._action_words = dict(what=f"x, y, z displacement in metres of grippers {tuple(self.controlled)}",
+                                  per=f" per control step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s)")
 
     # --- to implement ---------------------------------------------------------------------------------------------
 
@@ -358,9 +366,7 @@ class CableTask(base.Task):
         return self._action_spec
 
     def before_step(self, action, physics: CablePhysics) -> None:
-        a = checked_action(action, self.action_spec(physics), self._max_step, unit="m",
-                           what=f"x, y, z displacement in metres of grippers {tuple(self.controlled)}",
-                           per=f" per control step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s)")
+        a = checked_action(action, self._action_spec, self._max_step, unit="m", **self._action_words)
         physics.command_grippers({k: a[3 * i: 3 * i + 3] for i, k in enumerate(self.controlled)})
 
     def get_observation(self, physics: CablePhysics) -> collections.OrderedDict:
@@ -390,8 +396,8 @@ def checked_action(action, spec: specs.BoundedArray, bound: float, *, unit: str,
         raise ValueError(f"action must be an array of shape {spec.shape} in {unit}, got {action!r}") from exc
     if a.shape != spec.shape:
         raise ValueError(f"action must have shape {spec.shape} ({what}), got shape {a.shape}: {action!r}")
-    size = np.abs(a)
-    if a.size and not size.max() <= bound:  # beyond a bound, or NaN
+    if not all(-bound <= x <= bound for x in a.ravel().tolist()):  # beyond a bound, or NaN
+        size = np.abs(a)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action must be finite, got {action!r}")
         slack = bound + _ACTION_RTOL * bound
