@@ -318,8 +318,8 @@ class Simulator:
             given = list(grippers if pins is None else pins)
         except TypeError:
             given = None
-        if (given is None or any(isinstance(k, bool) or k not in grippers for k in given)
-                or len(set(given)) != len(given)):
+        if (given is None or any(isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer))
+                                 or k not in grippers for k in given) or len(set(given)) != len(given)):
             raise ValueError(f"pins must be distinct gripper pins, from {grippers}, got {pins!r}")
         return np.array([int(k) for k in given], dtype=np.int64)
 
