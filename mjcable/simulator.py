@@ -94,6 +94,7 @@ class Simulator:
         self.settings = catalog.make_settings(model, **settings)
         self.scene = scene
         self._grippers = scene.grippers
+        self._gripper_pins = np.array(scene.grippers, dtype=np.int64)  # step_along's default pins (numba: kept writable)
         self.model = model
         self.family = entry.family
         self._backend = entry.backend(scene, entry, self.dt, self.settings)
@@ -314,8 +315,10 @@ class Simulator:
         Raises:
           ValueError: not a sequence of distinct gripper pins."""
         grippers = self._grippers
+        if pins is None or (type(pins) is tuple and pins == grippers and all(type(k) is int for k in pins)):
+            return self._gripper_pins
         try:
-            given = list(grippers if pins is None else pins)
+            given = list(pins)
         except TypeError:
             given = None
         if (given is None or any(isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer))

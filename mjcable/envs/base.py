@@ -225,7 +225,7 @@ class CablePhysics(mujoco.Physics):
         """``nstep`` steps with the grippers on their clamped paths (:meth:`Workspace.paths`), taken by
         :meth:`mjcable.Simulator.step_along`; while a socket holds, the Simulator stops after a step in which one
         lets go, and the rest of the path is recomputed without its tether."""
-        sim, grippers = self._sim, list(commands)
+        sim, grippers = self._sim, tuple(commands)
         done = 0
         while done < nstep:
             released = sim.released

@@ -17,8 +17,8 @@ than the same arithmetic written inline, even with ``inline="always"``, and ever
 costs microseconds (reference counting per array argument). So the per-constraint functions take and return
 scalars only, the hot sweeps and the substep pieces are inlined into the drivers, the rarely used sweeps are called
 only when they have work, and the drivers take the arrays as separate arguments: ``run_substeps_flat`` (one step)
-and ``run_steps_flat`` (many whole steps with the Simulator's divergence checks: one call per ``step(T)`` that
-needs no contact query). ``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence). Numba
+and ``run_steps_flat`` (many whole steps with the Simulator's divergence checks, the grippers following a path if
+given: one call per ``step(T)`` or ``step_along(path)`` that needs no contact query). ``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence). Numba
 caches per file, but :mod:`mjcable.solvers._kernel_cache` stamps every kernel file's cache with all kernel
 files, so the drivers here call projections from sibling files: :mod:`~mjcable.solvers.constraint_kernels`
 (sweeps), :mod:`~mjcable.solvers.direct_kernels` (the direct order) and :mod:`~mjcable.solvers.kernels_layout`
