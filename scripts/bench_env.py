@@ -92,7 +92,6 @@ def bench(task: str = "unplug", model: str = "xpbd", *, steps: int = 200, hold: 
     env.reset()
     run_env()
     sim.step_along = step_along
-    replay.step_along(np.zeros((0, len(sim.scene.grippers), 3)))
     run_replay()  # warm up the replay's path through the loop
     times = {"env_s": [], "bare_s": [], "replay_s": []}
     for _ in range(repeats):
