@@ -94,9 +94,12 @@ class Simulator:
         self.settings = catalog.make_settings(model, **settings)
         self.scene = scene
         self._grippers = scene.grippers
+        self._gripper_pins = np.array(scene.grippers, dtype=np.int64)  # step_along's default pins (numba: kept writable)
         self.model = model
         self.family = entry.family
         self._backend = entry.backend(scene, entry, self.dt, self.settings)
+        n = scene.cable.n_particles
+        self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
         self._start_steps()
 
     def _start_steps(self) -> None:
@@ -208,22 +211,30 @@ class Simulator:
         solvers' ``runs_steps``) and more than one step (one gains nothing from the loop)."""
         return count > 1 and getattr(self._backend, "runs_steps", False)
 
-    def _run(self, count: int, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray) -> None:
+    def _run(self, count: int, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray, path: Optional[tuple] = None,
+             until_release: bool = False) -> int:
         """``count`` steps through the backend's ``run``, recording the state after the steps ``rows`` (R,)
-        (ascending, 1..count) into ``out_x``, ``out_v`` (R, N, 3). A step that the compiled loop flagged is checked
-        again here (:meth:`_check`: the same tests in the same arithmetic), so that the error is the per-step path's."""
+        (ascending, 1..count) into ``out_x``, ``out_v`` (R, N, 3), the grippers following ``path`` (``(pins,
+        targets)`` of :meth:`step_along`) and, with ``until_release``, stopping after a step in which a socket let
+        go. A step that the compiled loop flagged is checked again here (:meth:`_check`: the same tests in the
+        same arithmetic), so that the error is the per-step path's. Returns the steps taken."""
         done = stored = 0
+        released = len(self._backend.released)
         while done < count:
+            rest = None if path is None else (path[0], path[1][done:])
             k, recorded, reason, previous = self._backend.run(
-                count - done, max_distance=MAX_DISTANCE, max_speed=MAX_SPEED, rows=rows[stored:] - done,
-                out_x=out_x[stored:], out_v=out_v[stored:])
+                count - done, max_distance=MAX_DISTANCE, max_speed=MAX_SPEED,
+                rows=rows[stored:] - done if len(rows) else rows, out_x=out_x[stored:], out_v=out_v[stored:],
+                path=rest, until_release=until_release)
             done += k
             stored += recorded
             self._steps += k
             self._positions = self._backend.positions()
-            if previous is None:
-                continue
-            self._check(self._positions, previous, reason)  # raises naming the step (or goes on after a near miss)
+            if previous is not None:
+                self._check(self._positions, previous, reason)  # raises naming the step (or goes on after a near miss)
+            if until_release and len(self._backend.released) != released:
+                break
+        return done
 
     def step(self, seconds: Optional[float] = None) -> None:
         """Advance by whole steps of ``dt``; the remainder of ``seconds`` carries over to the next call.
@@ -236,11 +247,84 @@ class Simulator:
         """
         count = self._count(seconds)
         if self._in_kernel(count):
-            none = np.zeros((0,) + self._positions.shape)
-            self._run(count, np.zeros(0, dtype=np.int64), none, none)
+            rows, none = self._no_rows
+            self._run(count, rows, none, none)
             return
         for _ in range(count):
             self._advance()
+
+    def step_along(self, path, *, pins=None, until_release: bool = False) -> int:
+        """Take one step of ``dt`` per row of ``path``, the grippers moved to that row before the step.
+
+        Step ``i`` is :meth:`move_gripper` of each gripper whose ``path[i]`` entry differs from its commanded position
+        (a gripper that stays is not sent anywhere), then one :meth:`step`, with identical results; the particle
+        solvers take the whole path in one compiled loop (with Python only around contact queries) instead of one
+        Python step each. The remainder that :meth:`step` carries is left alone.
+
+        Args:
+          path: ``(steps, len(pins), 3)`` gripper positions in metres, world frame, finite; ``steps`` >= 0.
+          pins: the gripper pins (indices into ``scene.pins``) of ``path``'s columns, distinct; default
+            ``scene.grippers``.
+          until_release: stop after the first step in which a socket lets go (a caller whose path respects the
+            socket's hold, e.g. a tether to it, recomputes the rest of it).
+
+        Returns:
+          The number of steps taken: ``steps``, or fewer if ``until_release`` stopped it.
+
+        Raises:
+          ValueError: ``pins`` not distinct gripper pins, or ``path`` not of that shape or not finite.
+          SimulationDivergedError: NaN, runaway state or a MuJoCo warning (at the step it happened).
+
+        Example::
+
+            start = sim.gripper_positions[0]
+            path = start + np.linspace(0.0, 1.0, 51)[1:, None, None] * [0.05, 0.0, 0.0]  # 5 cm in 50 steps
+            sim.step_along(path)
+        """
+        pins = self._path_pins(pins)
+        try:
+            targets = np.ascontiguousarray(path, dtype=np.float64)
+        except (TypeError, ValueError):
+            targets = None
+        if targets is None or targets.ndim != 3 or targets.shape[1:] != (len(pins), 3):
+            raise ValueError(f"path must be an array of shape (steps, {len(pins)}, 3) in metres (one row of gripper "
+                             f"positions per step), got {path!r}")
+        if not np.isfinite(targets).all():
+            raise ValueError(f"path must be finite, got {path!r}")
+        count = len(targets)
+        if self._in_kernel(count):  # the backend sends every gripper to its row (where it is: it stays, bit for bit)
+            rows, none = self._no_rows
+            return self._run(count, rows, none, none, (pins, targets), bool(until_release))
+        moved = np.empty(targets.shape[:2], dtype=bool)  # (steps, G): whether a gripper's row differs from its last
+        if count:
+            positions = self._backend.gripper_positions()
+            np.any(targets[:1] != positions[[self._grippers.index(k) for k in pins.tolist()]], axis=2, out=moved[:1])
+            np.any(targets[1:] != targets[:-1], axis=2, out=moved[1:])
+        released = len(self._backend.released) if until_release else 0
+        for i in range(count):
+            for g in np.flatnonzero(moved[i]).tolist():
+                self._backend.move_gripper(int(pins[g]), targets[i, g])
+            self._advance()
+            if until_release and len(self._backend.released) != released:
+                return i + 1
+        return count
+
+    def _path_pins(self, pins) -> np.ndarray:
+        """``pins`` as a (G,) int64 array of distinct gripper pins (``None``: ``scene.grippers``).
+
+        Raises:
+          ValueError: not a sequence of distinct gripper pins."""
+        grippers = self._grippers
+        if pins is None or (type(pins) is tuple and pins == grippers and all(type(k) is int for k in pins)):
+            return self._gripper_pins
+        try:
+            given = list(pins)
+        except TypeError:
+            given = None
+        if (given is None or any(isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer))
+                                 or k not in grippers for k in given) or len(set(given)) != len(given)):
+            raise ValueError(f"pins must be distinct gripper pins, from {grippers}, got {pins!r}")
+        return np.array([int(k) for k in given], dtype=np.int64)
 
     def rollout(self, seconds: float, *, every: Optional[int] = None) -> Trajectory:
         """Advance like :meth:`step` (the same steps and remainder rule, identical results) and record the state.

@@ -6,7 +6,14 @@ walls) against a bare :class:`mjcable.Simulator` rebuilt from the environment's 
 scene, ``dt`` and settings) stepping the same simulated time, ``control_timestep`` per call. Each is timed
 ``--repeats`` times from its start state, interleaved, and the best run of each counts. Prints control steps per
 second of both and their ratio (environment time over bare time; issue 11 asks for at most 1.3 on ``unplug`` with
-``xpbd``); ``--profile`` also prints where the environment's time goes (cProfile, top entries).
+``xpbd``), in wall-clock time and in this process's CPU time (``time.process_time``: steadier on a shared machine).
+
+The bare Simulator's cable does not do what the environment's does (its gripper stays put, its socket holds), so
+part of the ratio is physics, not the environment's Python: a third Simulator, the "replay", makes the
+:meth:`mjcable.Simulator.step_along` calls (the same gripper paths) that one run of the environment made, recorded
+before the timed runs (an episode's physics depends on the actions only, for tasks whose scene does not change between
+episodes, as ``unplug``'s), and environment over replay is the environment's own cost. ``--profile`` also prints where the environment's time
+goes (cProfile, top entries).
 
 Usage::
 
@@ -31,19 +38,22 @@ from mjcable import envs
 BAR = 1.3  # issue 11: the unplug environment's control step at most this many times the bare Simulator's
 
 
-def _timed(run) -> float:
-    start = time.perf_counter()
+def _timed(run) -> tuple:
+    """(wall-clock seconds, CPU seconds of this process) that ``run()`` took."""
+    wall, cpu = time.perf_counter(), time.process_time()
     run()
-    return time.perf_counter() - start
+    return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def bench(task: str = "unplug", model: str = "xpbd", *, steps: int = 200, hold: int = 10, repeats: int = 3,
+def bench(task: str = "unplug", model: str = "xpbd", *, steps: int = 200, hold: int = 10, repeats: int = 5,
           seed: int = 0) -> dict:
-    """Best-of-``repeats`` seconds for ``steps`` control steps of the environment and of the bare Simulator.
+    """Best-of-``repeats`` seconds for ``steps`` control steps of the environment, of the bare Simulator and of the
+    replay of the environment's gripper paths.
 
     Returns:
-      ``{"env_s", "bare_s", "env_rate", "bare_rate", "ratio", "released"}``: seconds, control steps per second,
-      environment over bare time, and whether the random policy pulled a socket out (the last environment run).
+      ``{"env_s", "bare_s", "replay_s"}``, each (wall-clock, CPU) seconds, ``"env_rate", "bare_rate"`` control steps
+      per wall-clock second, ``"ratio"`` and ``"cpu_ratio"`` (environment over bare), ``"own_ratio"`` (environment
+      over replay, CPU) and whether the random policy pulled a socket out (``"released"``, the last environment run).
     """
     env = envs.load(task, model, random=seed, time_limit=10.0 * steps)  # no episode ends inside a timed run
     spec = env.action_spec()
@@ -54,9 +64,17 @@ def bench(task: str = "unplug", model: str = "xpbd", *, steps: int = 200, hold: 
     for a in actions[: 2 * hold]:  # warm up: compiled kernels, caches
         env.step(a)
     sim = env.physics.simulator
-    bare = mjcable.Simulator(sim.scene, sim.model, dt=sim.dt, **dataclasses.asdict(sim.settings))
+    bare, replay = (mjcable.Simulator(sim.scene, sim.model, dt=sim.dt, **dataclasses.asdict(sim.settings))
+                    for _ in range(2))
     control_timestep = env.control_timestep()
     bare.step(2 * hold * control_timestep)
+    calls = []  # the environment's step_along calls of its last run: (path taken, keywords)
+    step_along = sim.step_along
+
+    def recording(path, **kwargs):
+        taken = step_along(path, **kwargs)
+        calls.append((np.array(path[:taken]), kwargs))
+        return taken
 
     def run_env():
         for a in actions:
@@ -66,15 +84,27 @@ def bench(task: str = "unplug", model: str = "xpbd", *, steps: int = 200, hold: 
         for _ in range(steps):
             bare.step(control_timestep)
 
-    env_s, bare_s = [], []
+    def run_replay():
+        for path, kwargs in calls:
+            replay.step_along(path, **kwargs)
+
+    sim.step_along = recording  # this instance only; the same call, plus a copy of the path taken
+    env.reset()
+    run_env()
+    sim.step_along = step_along
+    run_replay()  # warm up the replay's path through the loop
+    times = {"env_s": [], "bare_s": [], "replay_s": []}
     for _ in range(repeats):
         env.reset()
-        env_s.append(_timed(run_env))
+        times["env_s"].append(_timed(run_env))
         bare.reset()
-        bare_s.append(_timed(run_bare))
-    e, b = min(env_s), min(bare_s)
-    return {"env_s": e, "bare_s": b, "env_rate": steps / e, "bare_rate": steps / b, "ratio": e / b,
-            "released": bool(env.physics.simulator.released)}
+        times["bare_s"].append(_timed(run_bare))
+        replay.reset()
+        times["replay_s"].append(_timed(run_replay))
+    best = {k: (min(t[0] for t in v), min(t[1] for t in v)) for k, v in times.items()}
+    (e, ec), (b, bc), (_, rc) = best["env_s"], best["bare_s"], best["replay_s"]
+    return {**best, "env_rate": steps / e, "bare_rate": steps / b, "ratio": e / b, "cpu_ratio": ec / bc,
+            "own_ratio": ec / rc, "released": bool(env.physics.simulator.released)}
 
 
 def profile(task: str, model: str, *, steps: int, hold: int, seed: int, top: int = 25) -> None:
@@ -99,7 +129,7 @@ def main(argv=None) -> int:
     parser.add_argument("--model", default="xpbd", help="a model of mjcable.catalog (default xpbd)")
     parser.add_argument("--steps", type=int, default=200, help="control steps per timed run (default 200)")
     parser.add_argument("--hold", type=int, default=10, help="control steps each random action is held")
-    parser.add_argument("--repeats", type=int, default=3, help="timed runs of each; the best counts (default 3)")
+    parser.add_argument("--repeats", type=int, default=5, help="timed runs of each; the best counts (default 5)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--profile", action="store_true", help="also print the environment's cProfile")
     args = parser.parse_args(argv)
@@ -112,6 +142,8 @@ def main(argv=None) -> int:
     print(f"  environment      {r['env_rate']:8.0f} control steps/s")
     print(f"  bare Simulator   {r['bare_rate']:8.0f} control steps/s (same simulated time per step)")
     print(f"  ratio            {r['ratio']:8.2f} x   (issue 11's bar: <= {BAR:g} on unplug with xpbd)")
+    print(f"  ratio, CPU time  {r['cpu_ratio']:8.2f} x")
+    print(f"  environment over the replay of its gripper paths (its own cost, CPU time): {r['own_ratio']:.2f} x")
     if args.profile:
         profile(args.task, args.model, steps=args.steps, hold=args.hold, seed=args.seed)
     return 0

@@ -468,6 +468,16 @@ class _LateRelease(mjcable.Simulator):
     def released(self) -> frozenset:
         return super().released if self.steps >= self.late else frozenset()
 
+    def step_along(self, path, *, pins=None, until_release=False) -> int:
+        """Stops where :attr:`released` (as reported) changes: not before step ``late``, at it if a socket has let go
+        by then, after it as the plain Simulator does."""
+        if not until_release or self.steps >= self.late:
+            return super().step_along(path, pins=pins, until_release=until_release)
+        n = super().step_along(path[:self.late - self.steps], pins=pins)  # nothing reported before step late
+        if n == len(path) or self.released:
+            return n
+        return n + super().step_along(path[n:], pins=pins, until_release=True)
+
 
 def _pair(task: str, model: str, late: int = 0):
     """Two environments of ``task`` on ``model`` with the same seed: the one under test, and one stepped by the

@@ -127,3 +127,125 @@ def test_runaway_in_the_loop_raises_as_the_per_step_path_does(monkeypatch):
         errors.append(str(err.value))
         assert sim.steps == 6
     assert errors[0] == errors[1]
+
+
+# --- Simulator.step_along: a gripper path in one call ---------------------------------------------------------------
+
+_PATH_STEPS = 50
+
+
+def _pull_path(sim) -> np.ndarray:
+    """(50, 1, 3) m: the socket scene's gripper still for 5 steps (rows equal to where it is), then drawn away from
+    the socket at 20 m/s², so that the socket lets go part way (after 7 to 24 steps, depending on the model)."""
+    scene = sim.scene
+    start = sim.gripper_positions[0]
+    away = start - scene.cable.particles[scene.pin_particle(0)]
+    t = np.maximum(np.arange(1, _PATH_STEPS + 1) - 5, 0) * sim.dt
+    return start + (10.0 * t**2)[:, None, None] * (away / np.linalg.norm(away))
+
+
+def _snapshot(sim) -> dict:
+    d = sim.mj_data
+    return dict(x=sim.positions, v=sim.velocities, f=sim.pin_forces, grippers=sim.gripper_positions,
+                sites=d.site_xpos.copy(), geoms=d.geom_xpos.copy(), mocap=d.mocap_pos.copy(),
+                time=np.array([d.time, sim.time, sim.steps]), released=np.array(sorted(sim.released)))
+
+
+def _assert_same(a: dict, b: dict) -> None:
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key], err_msg=f"{key} differs")
+
+
+def _reference_path(scene, model: str) -> tuple:
+    """The path taken the plain way: per step, move_gripper where the row changes, then step(). Returns the path,
+    the snapshot after every step, and the step after which the socket let go."""
+    sim = mjcable.Simulator(scene, model)
+    path = _pull_path(sim)
+    states, released_at = [], None
+    for i in range(len(path)):
+        if not np.array_equal(path[i, 0], sim.gripper_positions[0]):
+            sim.move_gripper(1, path[i, 0])
+        sim.step()
+        states.append(_snapshot(sim))
+        if sim.released and released_at is None:
+            released_at = i + 1
+    return path, states, released_at
+
+
+@pytest.mark.parametrize("model, compiled", [(m, c) for m in PARTICLE for c in (True, False)]
+                         + [("springs", True), ("flexrod", True)])  # native: one MuJoCo step after another
+def test_step_along_equals_move_gripper_and_step_bit_for_bit(model, compiled, monkeypatch):
+    scene = mjcable.scenes.get("socket", n_segments=12)
+    path, states, released_at = _reference_path(scene, model)
+    assert released_at is not None and 5 < released_at < _PATH_STEPS - 5  # the socket lets go part way
+
+    monkeypatch.setattr(ParticleBackend, "compiled_steps", compiled)
+    per_step = _counting(monkeypatch, "run_substeps_flat")
+    loop = _counting(monkeypatch, "run_steps_flat")
+    whole = mjcable.Simulator(scene, model)
+    assert whole.step_along(path) == _PATH_STEPS  # a release does not stop it unless asked
+    _assert_same(_snapshot(whole), states[-1])
+
+    watched = mjcable.Simulator(scene, model)
+    taken = watched.step_along(path, pins=(1,), until_release=True)
+    assert taken == released_at
+    _assert_same(_snapshot(watched), states[taken - 1])
+    assert watched.step_along(path[taken:], until_release=True) == _PATH_STEPS - taken  # no socket left to let go
+    _assert_same(_snapshot(watched), states[-1])
+    if model in PARTICLE and compiled:  # the paths really ran in the loop, not one Python step each
+        assert per_step["n"] == 0 and loop["n"] >= 1
+    elif model in PARTICLE:
+        assert per_step["n"] == 2 * _PATH_STEPS and loop["n"] == 0  # the whole path, the watched one
+
+
+def test_step_along_takes_no_steps_for_an_empty_path_and_leaves_the_remainder_alone():
+    sim = mjcable.Simulator(mjcable.scenes.get("socket", n_segments=12), "xpbd")
+    sim.step(0.003)  # one step, 1 ms carried over
+    assert sim.step_along(np.zeros((0, 1, 3))) == 0 and sim.steps == 1
+    sim.step_along(_pull_path(sim)[:2])
+    sim.step(0.001)  # the carried millisecond makes the fourth step
+    assert sim.steps == 4
+
+
+@pytest.mark.parametrize("pins, message", [
+    ((0,), r"pins must be distinct gripper pins, from \(1,\), got \(0,\)"),
+    ((1, 1), r"pins must be distinct gripper pins, from \(1,\), got \(1, 1\)"),
+    ((True,), r"pins must be distinct gripper pins, from \(1,\), got \(True,\)"),
+    (7, r"pins must be distinct gripper pins, from \(1,\), got 7"),
+])
+def test_step_along_rejects_pins_that_are_not_distinct_grippers(pins, message):
+    sim = mjcable.Simulator(mjcable.scenes.get("socket", n_segments=12), "xpbd")
+    with pytest.raises(ValueError, match=message):
+        sim.step_along(np.zeros((2, 1, 3)), pins=pins)
+    assert sim.steps == 0
+
+
+@pytest.mark.parametrize("path, message", [
+    (np.zeros((2, 3)), r"path must be an array of shape \(steps, 1, 3\) in metres"),
+    (np.zeros((2, 2, 3)), r"path must be an array of shape \(steps, 1, 3\)"),
+    ("far", r"path must be an array of shape \(steps, 1, 3\).*got 'far'"),
+    (np.full((2, 1, 3), np.nan), r"path must be finite, got array\(\[\[\[nan"),
+])
+def test_step_along_rejects_a_path_of_the_wrong_shape_or_not_finite(path, message):
+    sim = mjcable.Simulator(mjcable.scenes.get("socket", n_segments=12), "xpbd")
+    with pytest.raises(ValueError, match=message):
+        sim.step_along(path)
+    assert sim.steps == 0
+
+
+def test_an_environment_control_step_runs_in_the_compiled_loop(monkeypatch):
+    """unplug on xpbd: a moving control step takes no Python step (no per-step kernel call), and no more loop calls
+    than Simulator steps (the loop returns to Python only for contact queries)."""
+    from mjcable import envs
+
+    env = envs.load("unplug", "xpbd", random=0)
+    env.reset()
+    nstep = round(env.control_timestep() / env.physics.timestep())
+    action = np.full(env.action_spec().shape, 0.5 * env.action_spec().maximum)
+    per_step = _counting(monkeypatch, "run_substeps_flat")
+    loop = _counting(monkeypatch, "run_steps_flat")
+    before = env.physics.gripper_positions()
+    env.step(action)
+    assert not np.array_equal(env.physics.gripper_positions(), before)  # the gripper moved
+    assert env.physics.simulator.steps == nstep
+    assert per_step["n"] == 0 and 1 <= loop["n"] <= nstep

@@ -92,6 +92,12 @@ class ParticleBackend:
                                                                              world.gripper_body(k))])
                                         for k in scene.grippers], dtype=np.int64)
         self._mocap_of_pin = dict(zip(scene.grippers, self._gripper_mocap.tolist()))
+        self._pin_mocap = np.full(len(scene.pins), -1, dtype=np.int64)  # pin -> its gripper's mocap id (-1: none)
+        self._pin_mocap[list(scene.grippers)] = self._gripper_mocap
+        first = int(self._gripper_mocap[0]) if len(self._gripper_mocap) else 0
+        self._gripper_rows = (slice(first, first + len(self._gripper_mocap))  # a slice copies faster than an index
+                              if np.array_equal(self._gripper_mocap, np.arange(first, first + len(self._gripper_mocap)))
+                              else self._gripper_mocap)
         # views into mj_data, taken once (MjData's buffers do not move): the proxy's poses are written in place
         self._pose_pos = self.mj_data.mocap_pos[:n]
         self._pose_quat = self.mj_data.mocap_quat[:n]
@@ -114,6 +120,7 @@ class ParticleBackend:
         self._prev = np.zeros((n_particles, 3))
         self._clock = np.zeros(1)
         self._bounds = _obstacle_bounds(self._obstacles)
+        self._no_path = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
         self.timing = {"query": 0.0, "solve": 0.0, "sync": 0.0}
         self.reset()
 
@@ -180,9 +187,10 @@ class ParticleBackend:
         return None if finite else _NON_FINITE
 
     def run(self, count: int, *, max_distance: float, max_speed: float, rows: np.ndarray, out_x: np.ndarray,
-            out_v: np.ndarray) -> tuple:
+            out_v: np.ndarray, path: Optional[tuple] = None, until_release: bool = False) -> tuple:
         """Up to ``count`` steps with the results of as many :meth:`step` calls, bit for bit, stopping after a step
-        that fails a divergence check; ``mj_data`` is posed once, at the end.
+        that fails a divergence check; ``mj_data`` is posed once, at the end. With a gripper ``path``, the results
+        of :meth:`move_gripper` for the moving grippers before each of those calls.
 
         Steps that need no contact query run in one compiled loop (:func:`kernels.run_steps_flat`); a query (a
         step whose reach touches an obstacle's bounding box, or every step with self-collision) returns to Python
@@ -193,6 +201,10 @@ class ParticleBackend:
           max_distance, max_speed: the Simulator's runaway limits (m from the origin, m/s).
           rows: ``(R,)`` ascending step numbers (1..count) after which to record the state, into ``out_x`` and
             ``out_v`` ``(R, n_segments + 1, 3)`` (m, m/s).
+          path: ``(pins, targets)`` or ``None``: before step ``k`` the gripper of ``scene.pins[pins[g]]`` (``pins``
+            (G,) int64) moves to ``targets[k, g]`` (``(count, G, 3)`` m, C-contiguous), as :meth:`move_gripper` (a
+            gripper sent where it already is stays bit for bit: its target and mocap body hold the same numbers).
+          until_release: also stop after a step in which a socket let go.
 
         Returns:
           (steps taken, rows recorded, the solver's divergence reason or ``None``, the positions (N, 3) before
@@ -202,16 +214,19 @@ class ParticleBackend:
         lim[kernels.LIM["max_distance"]], lim[kernels.LIM["max_speed"]] = max_distance, max_speed
         clock[0] = self.mj_data.time
         solo = bool(s.self_collision)
+        pins, targets = self._no_path if path is None else path
         done = stored = 0
         reason = previous = None
         while done < count:
             t0 = time.perf_counter()
+            # (the loop moves the grippers itself; the query does not need them: with no user world, which runs_steps
+            # requires, a gripper is a mocap body with a visual geom only, world.add_anchor)
             self._find_contacts()
             t1 = time.perf_counter()
             chunk = rows[stored:] - done if len(rows) > stored else rows[:0]
             k, finite, released, stopped, recorded = kernels.run_steps_flat(
                 *S, *self.contacts, s.substeps, count - done, solo, lim, *self._bounds, self._prev, chunk,
-                out_x[stored:], out_v[stored:], clock)
+                out_x[stored:], out_v[stored:], clock, targets[done:], pins, until_release)
             self._posed = False
             self.timing["query"] += t1 - t0
             self.timing["solve"] += time.perf_counter() - t1
@@ -225,6 +240,10 @@ class ParticleBackend:
                 reason = None if finite else _NON_FINITE
                 previous = self._prev.copy()
                 break
+            if released and until_release:
+                break
+        if done and len(targets):  # the grippers' mocap bodies where the loop sent them (pin_to holds it)
+            self.mj_data.mocap_pos[self._pin_mocap[pins]] = S.pin_to[pins]
         t2 = time.perf_counter()
         self.mj_data.time = float(clock[0])
         self._sync()
@@ -310,7 +329,7 @@ class ParticleBackend:
         return self.state.mass.copy()
 
     def gripper_positions(self) -> np.ndarray:
-        return self.mj_data.mocap_pos[self._gripper_mocap].copy()
+        return self.mj_data.mocap_pos[self._gripper_rows].copy()
 
     def move_gripper(self, k: int, position: np.ndarray) -> None:
         """Move the gripper of ``scene.pins[k]`` to ``position`` (3,) m: its particle reaches it linearly over the

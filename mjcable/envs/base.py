@@ -6,8 +6,9 @@ the Simulator, so the native models (stepped by MuJoCo) and the particle solvers
 the rigid scene and the proxy capsules by MuJoCo) run, observe and render alike. ``physics.timestep()`` is the
 Simulator's ``dt``; one control step is ``control_timestep / dt`` Simulator steps, and the grippers move a
 ``1 / n``-th of their commanded displacement before each of them, clamped to the task's :class:`Workspace`. The
-clamped positions of all ``n`` steps come from one compiled call (:meth:`Workspace.paths`); the control step then
-runs no Python per step beyond one ``move_gripper`` per moving gripper and the Simulator's own step.
+clamped positions of all ``n`` steps come from one compiled call (:meth:`Workspace.paths`) and go to
+:meth:`mjcable.Simulator.step_along`, so the control step runs no Python per step: the particle solvers take it in
+one compiled loop (Python only around contact queries), the native models one MuJoCo step after another.
 
 The Physics keeps no copy of the Simulator's state: positions, velocities (the model's own), gripper targets and
 released sockets are read from :attr:`CablePhysics.simulator` when asked for, and the pins that are not grippers
@@ -139,6 +140,8 @@ class CablePhysics(mujoco.Physics):
         anchors = [scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
         self._anchors = np.array(anchors, dtype=np.float64).reshape(-1, 3)  # the pins' start particles (the scene's)
         self._anchors.setflags(write=False)
+        self._gripper_rows = np.array(self._grippers, dtype=np.int64)  # rows of pin_positions that grippers fill
+        self._engaged_by = {}  # released sockets -> (n_pins,) bool, read-only: pins_engaged without rebuilding it
         self._reload_from_data(wrapper.MjData(simulator.mj_data))
 
     # --- episodes -------------------------------------------------------------------------------------------------
@@ -193,9 +196,9 @@ class CablePhysics(mujoco.Physics):
         before each.
 
         The grippers' clamped positions after every step are computed in one call (:meth:`Workspace.paths`), again
-        for the remaining steps if a socket lets go part way (its tether then no longer holds); a gripper that does
-        not move in a step is not sent anywhere, and steps with no gripper moving run as one
-        :meth:`mjcable.Simulator.step`.
+        for the remaining steps if a socket lets go part way (its tether then no longer holds), and the steps run in
+        one :meth:`mjcable.Simulator.step_along` (a gripper that does not move in a step is not sent anywhere);
+        with no gripper commanded, in one :meth:`mjcable.Simulator.step`.
 
         Raises:
           mjcable.SimulationDivergedError: the simulation diverged.
@@ -219,31 +222,17 @@ class CablePhysics(mujoco.Physics):
             sim.step()
 
     def _step_moving(self, commands: Dict[int, np.ndarray], nstep: int) -> None:
-        sim, grippers = self._sim, list(commands)
+        """``nstep`` steps with the grippers on their clamped paths (:meth:`Workspace.paths`), taken by
+        :meth:`mjcable.Simulator.step_along`; while a socket holds, the Simulator stops after a step in which one
+        lets go, and the rest of the path is recomputed without its tether."""
+        sim, grippers = self._sim, tuple(commands)
         done = 0
         while done < nstep:
             released = sim.released
-            watch = not released.issuperset(self._sockets)  # a socket may let go: check after every step
-            path, moved = self._workspace.paths(commands, nstep, self.pin_positions(), self._engaged(released),
-                                                steps=nstep - done)
-            moved = moved.tolist()  # (steps, grippers): whether a gripper goes anywhere
-            i, count = 0, len(path)
-            while i < count:
-                if any(moved[i]):
-                    for g, k in enumerate(grippers):
-                        if moved[i][g]:
-                            sim.move_gripper(k, path[i, g])
-                    sim.step()
-                    i += 1
-                else:  # steps where no gripper moves: at once, unless a socket may let go in between
-                    j = i + 1
-                    while not watch and j < count and not any(moved[j]):
-                        j += 1
-                    self._advance(j - i)
-                    i = j
-                if watch and sim.released != released:
-                    break  # a socket let go: its tether no longer holds the rest of the path
-            done += i
+            watch = not released.issuperset(self._sockets)
+            path, _ = self._workspace.paths(commands, nstep, self.pin_positions(), self._engaged(released),
+                                            steps=nstep - done)
+            done += sim.step_along(path, pins=grippers, until_release=watch)
 
     def render(self, height=240, width=320, camera_id=-1, overlays=(), depth=False, segmentation=False,
                scene_option=None, render_flag_overrides=None, scene_callback=None) -> np.ndarray:
@@ -301,17 +290,21 @@ class CablePhysics(mujoco.Physics):
         """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the other pins
         (world pins, sockets) at their start particles."""
         pins = self._anchors.copy()
-        pins[self._grippers] = self._sim.gripper_positions
+        pins[self._gripper_rows] = self._sim.gripper_positions
         return pins
 
     def pins_engaged(self) -> np.ndarray:
         """``(n_pins,)`` bool: whether each pin still holds the cable (a released socket does not)."""
-        return self._engaged(self._sim.released)
+        return self._engaged(self._sim.released).copy()
 
     def _engaged(self, released: frozenset) -> np.ndarray:
-        engaged = np.ones(len(self._anchors), dtype=bool)
-        if released:
+        """:meth:`pins_engaged` for ``released``, read-only (built once per set of released sockets)."""
+        engaged = self._engaged_by.get(released)
+        if engaged is None:
+            engaged = np.ones(len(self._anchors), dtype=bool)
             engaged[list(released)] = False
+            engaged.setflags(write=False)
+            self._engaged_by[released] = engaged
         return engaged
 
 
@@ -341,6 +334,8 @@ class CableTask(base.Task):
         self._max_step = MAX_GRIPPER_SPEED * control_timestep
         self._action_spec = specs.BoundedArray((3 * len(self.controlled),), np.float64, -self._max_step,
                                                self._max_step, name="gripper_displacement")
+        self._action_words = dict(what=f"x, y, z displacement in metres of grippers {tuple(self.controlled)}",
+                                  per=f" per control step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s)")
 
     # --- to implement ---------------------------------------------------------------------------------------------
 
@@ -371,9 +366,7 @@ class CableTask(base.Task):
         return self._action_spec
 
     def before_step(self, action, physics: CablePhysics) -> None:
-        a = checked_action(action, self.action_spec(physics), self._max_step, unit="m",
-                           what=f"x, y, z displacement in metres of grippers {tuple(self.controlled)}",
-                           per=f" per control step (gripper speed <= {MAX_GRIPPER_SPEED:g} m/s)")
+        a = checked_action(action, self._action_spec, self._max_step, unit="m", **self._action_words)
         physics.command_grippers({k: a[3 * i: 3 * i + 3] for i, k in enumerate(self.controlled)})
 
     def get_observation(self, physics: CablePhysics) -> collections.OrderedDict:
@@ -403,8 +396,8 @@ def checked_action(action, spec: specs.BoundedArray, bound: float, *, unit: str,
         raise ValueError(f"action must be an array of shape {spec.shape} in {unit}, got {action!r}") from exc
     if a.shape != spec.shape:
         raise ValueError(f"action must have shape {spec.shape} ({what}), got shape {a.shape}: {action!r}")
-    size = np.abs(a)
-    if a.size and not size.max() <= bound:  # beyond a bound, or NaN
+    if not all(-bound <= x <= bound for x in a.ravel().tolist()):  # beyond a bound, or NaN
+        size = np.abs(a)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action must be finite, got {action!r}")
         slack = bound + _ACTION_RTOL * bound

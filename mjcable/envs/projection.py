@@ -283,6 +283,5 @@ def move_paths(pins, grippers, displacements, nstep: int, box, clearance: float,
     count = nstep if steps is None else steps
     out = np.empty((count, len(grippers), 3))
     moved = np.empty((count, len(grippers)), dtype=np.bool_)
-    kind, pos, rot, size = obstacles
-    _move_paths(pins, grippers, displacements, nstep, box, clearance, tethers, kind, pos, rot, size, out, moved)
+    _move_paths(pins, grippers, displacements, nstep, box, clearance, tethers, *obstacles, out, moved)
     return out, moved

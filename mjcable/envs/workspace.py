@@ -83,6 +83,7 @@ class Workspace:
                 tether_max[k, t.pin] = t.max_distance
         object.__setattr__(self, "_tethers", tethers)
         object.__setattr__(self, "_tether_max", tether_max)  # (n_pins, n_pins) m, row k gripper k's; inf: none
+        object.__setattr__(self, "_holding_by", {})  # engaged pins (bytes) -> _holding's answer
         object.__setattr__(self, "_obstacles", projection.pack_obstacles(self.scene.obstacles))
 
     def _make_tethers(self, k: int) -> Tuple[Tether, ...]:
@@ -123,7 +124,12 @@ class Workspace:
         engaged = np.asarray(engaged, dtype=bool)
         if engaged.shape != (len(self.scene.pins),):
             raise ValueError(f"engaged must hold one bool per pin ({len(self.scene.pins)}), got {engaged!r}")
-        return self._tether_max if engaged.all() else np.where(engaged, self._tether_max, np.inf)
+        key = engaged.tobytes()
+        tethers = self._holding_by.get(key)
+        if tethers is None:  # once per pattern of engaged pins
+            tethers = np.where(engaged, self._tether_max, np.inf)  # (kept writable: numba types read-only apart)
+            self._holding_by[key] = tethers
+        return tethers
 
     def violation(self, k: int, position, pins: np.ndarray, engaged: Sequence[bool]) -> float:
         """How far (metres) gripper ``k`` at ``position`` lies outside the allowed set; 0 inside it.
@@ -162,8 +168,8 @@ class Workspace:
         grippers = list(displacements)
         tethers = self._holding(grippers, engaged)
         d = np.array([displacements[k] for k in grippers], dtype=np.float64).reshape(len(grippers), 3)
-        return projection.move_paths(pins, grippers, d, nstep, self._box, self.clearance, tethers, self._obstacles,
-                                     steps=steps)
+        return projection.move_paths(pins, np.array(grippers, dtype=np.int64), d, nstep, self._box, self.clearance,
+                                     tethers, self._obstacles, steps=steps)
 
     def move(self, k: int, start, displacement, pins: np.ndarray, engaged: Sequence[bool]) -> np.ndarray:
         """Where gripper ``k`` ends when commanded from ``start`` by ``displacement``, clamped to the allowed set.

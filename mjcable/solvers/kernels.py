@@ -17,8 +17,8 @@ than the same arithmetic written inline, even with ``inline="always"``, and ever
 costs microseconds (reference counting per array argument). So the per-constraint functions take and return
 scalars only, the hot sweeps and the substep pieces are inlined into the drivers, the rarely used sweeps are called
 only when they have work, and the drivers take the arrays as separate arguments: ``run_substeps_flat`` (one step)
-and ``run_steps_flat`` (many whole steps with the Simulator's divergence checks: one call per ``step(T)`` that
-needs no contact query). ``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence). Numba
+and ``run_steps_flat`` (many whole steps with the Simulator's divergence checks, the grippers following a path if
+given: one call per ``step(T)`` or ``step_along(path)`` that needs no contact query). ``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence). Numba
 caches per file, but :mod:`mjcable.solvers._kernel_cache` stamps every kernel file's cache with all kernel
 files, so the drivers here call projections from sibling files: :mod:`~mjcable.solvers.constraint_kernels`
 (sweeps), :mod:`~mjcable.solvers.direct_kernels` (the direct order) and :mod:`~mjcable.solvers.kernels_layout`
@@ -319,20 +319,23 @@ def _step_checks(x, v, prev, lim):
 def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
                    clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
                    row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo,
-                   slam, shapes, impulse, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev, rows, out_x, out_v,
-                   clock):
+                   slam, shapes, impulse, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev, rows,
+                   out_x, out_v, clock, path, path_pins, until_release):
     """Up to ``n_steps`` whole steps of ``n_sub`` substeps (:func:`run_substeps`) in one call (``*chain,
     *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones none. After each
     step, as the Python step: the pins' start moves to their target (a gripper move spreads over one step),
     ``clock[0] += lim[dt]`` (``mj_data.time``), x and v go to ``out_x[r]``, ``out_v[r]`` (R, N, 3) when the
-    step's number in this call is ``rows[r]`` (ascending). Returns (steps taken, finite, sockets released, stopped
-    by a check, rows stored), early:
+    step's number in this call is ``rows[r]`` (ascending). Grippers follow ``path`` (P, G, 3) m: before step ``k``
+    (``k < P``) the target of pin ``path_pins[g]`` (G,) becomes ``path[k, g]``, as ``Simulator.move_gripper``
+    before a Python step (P = 0: no path). Returns (steps taken, finite, sockets released,
+    stopped by a check, rows stored), early:
 
     * after a step whose state is non-finite or runs away (:func:`_step_checks`; ``prev`` (N, 3) holds the
       positions before it), so that the caller raises naming that step;
     * before a step whose reach (:func:`step_margin` + ``lim[radius]``) touches an obstacle (``box_lo``, ``box_hi``,
       ``plane_n``, ``plane_p``: empty for none), or any step after the first if ``solo`` (self-collision): the
-      caller queries its contacts."""
+      caller queries its contacts;
+    * after a step in which a socket let go, if ``until_release``."""
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
               clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
               row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
@@ -346,13 +349,19 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
                 plane_n, plane_p))):
             return k, True, released, False, stored
         C = given if k == 0 else none
+        if k < path.shape[0]:
+            for g in range(path_pins.shape[0]):
+                q = path_pins[g]
+                pin_to[q, 0], pin_to[q, 1], pin_to[q, 2] = path[k, g, 0], path[k, g, 1], path[k, g, 2]
         for p in range(x.shape[0]):  # (explicit copies: faster than slice assignments here)
             prev[p, 0], prev[p, 1], prev[p, 2] = x[p, 0], x[p, 1], x[p, 2]
+        let_go = 0
         for sub in range(n_sub):  # run_substeps(S, C, n_sub, PHASE_ALL, 0), its finite check below
             begin_substep(S, C, sub, n_sub)
             for _ in range(ip[_I_ITER]):
                 iterate(S, C)
-            released += end_substep(S, C)
+            let_go += end_substep(S, C)
+        released += let_go
         for q in range(pin_to.shape[0]):
             pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
         clock[0] += lim[_L_DT]
@@ -363,4 +372,6 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
         finite, runaway = _step_checks(x, v, prev, lim)
         if not finite or runaway:
             return k + 1, finite, released, True, stored
+        if until_release and let_go > 0:
+            return k + 1, True, released, False, stored
     return n_steps, True, released, False, stored
