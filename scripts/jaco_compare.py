@@ -12,7 +12,9 @@ place, :mod:`mjcable.io`):
 
 * ``jaco_compare.mp4``: the ``overview`` camera, one labelled tile per model (:mod:`mjcable.render.grid`);
 * ``pin_forces.png``: the magnitude (N) of the force of the hand's pin and of the socket's pin on the cable against
-  time (s), one line per model, the socket's release force dashed;
+  time (s) (:attr:`mjcable.Simulator.pin_forces` after every step), one line per model, the socket's release force
+  dashed. The socket lets go inside the step in which the solver's force on it exceeds the release force, and a
+  released pin reads zero, so a socket's line drops to zero from its last value below the release force;
 * ``pin_forces.csv``: the same numbers, one row per step and model (``model,time_s,hand_N,socket_N,
   released``).
 
@@ -21,7 +23,7 @@ error goes to stderr and the exit status is 1.
 
 Usage::
 
-    MUJOCO_GL=egl python scripts/jaco_compare.py --out jaco_compare                # 3 s, 240x180 tiles, 15 fps
+    MUJOCO_GL=egl python scripts/jaco_compare.py --out jaco_compare     # 3 s, 240x180 tiles, 15 fps: about 2.5 min
     python scripts/jaco_compare.py --out out --models joints xpbd --seconds 1 --width 96 --height 72 --fps 10
 """
 

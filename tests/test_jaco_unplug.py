@@ -29,8 +29,9 @@ SHORT_LIMIT = 0.2  # s: conformance episodes of 10 control steps, so the 25 acti
 RANDOM_STEPS = 1000  # control steps (20 s: two 10 s episodes)
 RANDOM_HOLD = 10  # control steps each random action is held, so the arm really moves between the bounds
 RANDOM_SEED = 11
-# Seeds on which joints diverged (released cable whipping round the hand) before it got 2 MuJoCo steps per dt here
-JOINTS_WHIP_SEEDS = (6, 10, 17, 29)
+# Action seeds on which the undamped cable diverged (see the module docstring of mjcable.envs.jaco_unplug): joints
+# and composite on 6, 10, 11, 17, 29, springs on 6, 10, 11
+EXTRA_SEEDS = {"joints": (6, 10, 17, 29), "springs": (6,), "composite": (6,), "flexrod": (6,)}  # the cheap models
 
 
 def _random_actions(spec, count: int, seed: int):
@@ -111,7 +112,7 @@ def test_resting_cable_does_not_release_and_reward_is_small():
 # --- a random policy, 1000 control steps ----------------------------------------------------------------------------
 
 
-_RANDOM_CASES = [(model, RANDOM_SEED) for model in MODELS] + [("joints", seed) for seed in JOINTS_WHIP_SEEDS]
+_RANDOM_CASES = [(model, RANDOM_SEED) for model in MODELS] + [(m, seed) for m in EXTRA_SEEDS for seed in EXTRA_SEEDS[m]]
 
 
 @pytest.mark.slow

@@ -41,8 +41,9 @@ at the same steps) diverged on 5 of 31 action seeds, a ball joint near the hand 
 on 3 of 3 seeds tried, its stretch vibrations growing until its hand pin pulled 20 to 60 N on the 0.05 kg cable.
 At 0.2/s ``springs`` still diverged (2 of 2 seeds). At 1/s no model diverged on the seeds tried (``joints`` 31 of
 31). The damping acts on velocities only (zero at rest), so the resting pull is unchanged, and at the retreat's
-0.25 m/s its drag is about 0.01 N. (A ``joints`` step of 1 ms, or twice its whip damping, also kept ``joints``
-finite on its failing seeds, but would not help ``springs``, and a real cable's internal friction does damp it.)
+0.24 m/s its drag is about 0.01 N. (A ``joints`` step of 1 ms, or twice its whip damping, also kept ``joints``
+finite on its failing seeds; but ``springs`` already steps MuJoCo every 0.2 ms (10 substeps) and still diverged, and
+a real cable's internal friction does damp it.)
 """
 
 from __future__ import annotations
@@ -60,8 +61,8 @@ from mjcable.scene import CableSpec, Pin, Scene
 from mjcable.worlds import jaco
 
 __all__ = ["Physics", "JacoUnplug", "ACTION_RANGE", "RELEASE_FORCE", "TARGET_BOX", "TARGET_RADIUS", "TIME_LIMIT",
-           "SEGMENTS", "CABLE_RADIUS", "CABLE_MASS", "CABLE_DAMPING", "PLUG_STANDOFF", "START_SAG", "DT", "RETREAT", "RETREAT_RAMP",
-           "make_scene", "retreat_action"]
+           "SEGMENTS", "CABLE_RADIUS", "CABLE_MASS", "CABLE_DAMPING", "PLUG_STANDOFF", "START_SAG", "DT", "RETREAT",
+           "RETREAT_RAMP", "make_scene", "retreat_action"]
 
 ACTION_RANGE = 0.6  # rad: each joint target within home ± this
 RELEASE_FORCE = 5.0  # N: the socket lets go above this pull (the resting cable pulls about 0.3 N)
