@@ -36,14 +36,17 @@ Why the cable is damped (:data:`CABLE_DAMPING` = 1/s; the built-in scenes use 0.
 a random policy (uniform arm targets, each held 0.2 s, 1000 control steps from seed ``random=7``, action seeds 0 to
 30). Once the plug is out, the arm (grip up to about 2 m/s, reversing within tenths of a second) keeps feeding
 energy into a limp cable with a free end, and nothing drains it: its speeds climb over seconds from about 5 m/s to
-10 to 30 m/s, it whips round the hand and strikes the fingers, and the integrator fails. ``joints`` (and ``composite``,
-at the same steps) diverged on 5 of 31 action seeds, a ball joint near the hand spinning at over 100 rad/s; ``springs``
-on 3 of 3 seeds tried, its stretch vibrations growing until its hand pin pulled 20 to 60 N on the 0.05 kg cable.
-At 0.2/s ``springs`` still diverged (2 of 2 seeds). At 1/s no model diverged on the seeds tried (``joints`` 31 of
-31). The damping acts on velocities only (zero at rest), so the resting pull is unchanged, and at the retreat's
-0.24 m/s its drag is about 0.01 N. (A ``joints`` step of 1 ms, or twice its whip damping, also kept ``joints``
-finite on its failing seeds; but ``springs`` already steps MuJoCo every 0.2 ms (10 substeps) and still diverged, and
-a real cable's internal friction does damp it.)
+10 to 30 m/s, it whips round the hand and strikes the fingers, and the integrator fails. ``joints`` diverged on 5
+of 31 action seeds, a ball joint near the hand spinning at over 100 rad/s (``composite`` at the very same steps on
+the 3 of them tried); ``springs`` on 3 of 3 seeds tried, its stretch vibrations growing until its hand pin pulled 20
+to 60 N on the 0.05 kg cable. At 0.2/s ``springs`` still diverged (2 of 2 seeds). At 1/s no model diverged on any
+seed tried: ``joints`` 31 of 31, ``springs``, ``composite``, ``flexrod`` and ``xpbd`` 2 of 2, ``pbd`` and
+``jakobsen`` 1 of 1 (``tests/test_jaco_unplug.py`` runs most of them). The damping acts on velocities only (zero at
+rest), so the resting pull is unchanged, and at the retreat's 0.24 m/s its drag is about 0.01 N. On ``joints`` and
+``composite`` it is MuJoCo's medium viscosity (0.017 Pa·s here), which drags the arm's links too: about 0.03 N on a
+link 0.1 m across at 2 m/s, against servos of up to 30 N·m. (A ``joints`` step of 1 ms, or twice its whip damping,
+also kept the undamped ``joints`` finite on its failing seeds, 31 of 31 at 1 ms; but ``springs`` already steps
+MuJoCo every 0.2 ms (10 substeps) and still diverged, and a real cable's internal friction does damp it.)
 """
 
 from __future__ import annotations
