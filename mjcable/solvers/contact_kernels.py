@@ -115,10 +115,13 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
             face, sign, qk, hk, beside = 1, (1.0 if my >= 0.0 else -1.0), qy, sy, ex > 0.0 or ez > 0.0
         else:
             face, sign, qk, hk, beside = 2, (1.0 if mz >= 0.0 else -1.0), qz, sz, ex > 0.0 or ey > 0.0
-        if not beside and sign * qk <= hk:  # inside, or through the plate under the detected face
-            d = sign * qk - hk
-            lx, ly, lz = (sign, 0.0, 0.0) if face == 0 else ((0.0, sign, 0.0) if face == 1 else (0.0, 0.0, sign))
-        else:  # outside: the closest point on the box
+        if not beside:
+            # over the detected face (outside it, inside the box, or through the plate under it): the face's plane,
+            # d = sign qₖ − hₖ, n = sign Rₖ (never against n₀), the closest point's d = |qₖ − clamp(qₖ)| without
+            # the square root and the rotation (a cable resting on a box takes this branch)
+            return (sign * qk - hk - radius, sign * shapes[row, r + face], sign * shapes[row, r + 3 + face],
+                    sign * shapes[row, r + 6 + face])
+        else:  # beside the face: the closest point on the box
             cx = qx - min(max(qx, -sx), sx)
             cy = qy - min(max(qy, -sy), sy)
             cz = qz - min(max(qz, -sz), sz)
