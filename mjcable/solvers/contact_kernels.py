@@ -115,10 +115,13 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
             face, sign, qk, hk, beside = 1, (1.0 if my >= 0.0 else -1.0), qy, sy, ex > 0.0 or ez > 0.0
         else:
             face, sign, qk, hk, beside = 2, (1.0 if mz >= 0.0 else -1.0), qz, sz, ex > 0.0 or ey > 0.0
-        if not beside and sign * qk <= hk:  # inside, or through the plate under the detected face
-            d = sign * qk - hk
-            lx, ly, lz = (sign, 0.0, 0.0) if face == 0 else ((0.0, sign, 0.0) if face == 1 else (0.0, 0.0, sign))
-        else:  # outside: the closest point on the box
+        if not beside:
+            # over the detected face (outside it, inside the box, or through the plate under it): the face's plane,
+            # d = sign qₖ − hₖ, n = sign Rₖ (never against n₀), the closest point's d = |qₖ − clamp(qₖ)| without
+            # the square root and the rotation (a cable resting on a box takes this branch)
+            return (sign * qk - hk - radius, sign * shapes[row, r + face], sign * shapes[row, r + 3 + face],
+                    sign * shapes[row, r + 6 + face])
+        else:  # beside the face: the closest point on the box
             cx = qx - min(max(qx, -sx), sx)
             cy = qy - min(max(qy, -sy), sy)
             cz = qz - min(max(qz, -sz), sz)
@@ -203,9 +206,15 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
             # nearer a held particle than the segment's middle, the contact is the pin's: the free particle alone
             # would satisfy it with a lever of 1/share, a correction without bound as the point nears the pin
             continue
-        px = a * x[i, 0] + b * x[j, 0]
-        py = a * x[i, 1] + b * x[j, 1]
-        pz = a * x[i, 2] + b * x[j, 2]
+        inv_wsum = 1.0 / wsum
+        if b == 0.0:  # at a particle (the query puts a contact this near a segment's end on the particle)
+            px, py, pz = x[i, 0], x[i, 1], x[i, 2]
+        elif a == 0.0:
+            px, py, pz = x[j, 0], x[j, 1], x[j, 2]
+        else:
+            px = a * x[i, 0] + b * x[j, 0]
+            py = a * x[i, 1] + b * x[j, 1]
+            pz = a * x[i, 2] + b * x[j, 2]
         k = int(geo[c, 6])
         if k >= 0:
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4],
@@ -215,15 +224,18 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
             cval = nx * px + ny * py + nz * pz - geo[c, 4]
         if cval >= 0.0:
             continue
-        dlam = -cval / wsum
+        dlam = -cval * inv_wsum
         lam[c] += dlam
         mu = geo[c, 5]
         for p, f, wp in ((i, a, wi), (j, b, wj)):
+            if f == 0.0:  # the contact acts at the other particle: none of its load, μ or obstacle here
+                continue
             g = f * dlam
             if wp > 0.0:
-                x[p, 0] += wp * g * nx
-                x[p, 1] += wp * g * ny
-                x[p, 2] += wp * g * nz
+                m = wp * f * inv_wsum * cval  # −wₚ g, with C last: a short chain from x through C to Δx
+                x[p, 0] -= m * nx
+                x[p, 1] -= m * ny
+                x[p, 2] -= m * nz
             else:
                 react[p, 0] += g * nx
                 react[p, 1] += g * ny
@@ -263,7 +275,8 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
         norm = math.sqrt(nx * nx + ny * ny + nz * nz)
         if norm <= 0.0:
             continue
-        nx, ny, nz = nx / norm, ny / norm, nz / norm
+        inv_norm = 1.0 / norm
+        nx, ny, nz = nx * inv_norm, ny * inv_norm, nz * inv_norm
         lam_n = sx * nx + sy * ny + sz * nz
         if lam_n <= 0.0:
             continue
@@ -282,16 +295,19 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
         ez = -(dz - dn * nz) * inv_w
         ux, uy, uz = tcx + fx0, tcy + fy0, tcz + fz0  # the tangential impulse so far
         qa = ex * ex + ey * ey + ez * ez
-        if qa <= 0.0:
-            continue
         qb = ux * ex + uy * ey + uz * ez
         qc = ux * ux + uy * uy + uz * uz - cone * cone
-        # the largest share α ∈ [0, 1] of that impulse inside the cone: |u + α e| ≤ μ λₙ
-        alpha = 0.0 if qc > 0.0 else (-qb + math.sqrt(max(qb * qb - qa * qc, 0.0))) / qa
-        if alpha < 1.0:  # outside the cone: kinetic friction on its rim, and the particle slides
-            fric[p, FR_SLID] = 1.0
-        else:
+        # the largest share α ∈ [0, 1] of that impulse inside the cone: |u + α e|² = qc + 2 α qb + α² qa ≤ 0
+        if qc <= 0.0 and qa + 2.0 * qb + qc <= 0.0:  # all of it (the sticking particle: no root to take)
             alpha = 1.0
+        elif qa <= 0.0:  # at its anchor already
+            continue
+        else:
+            alpha = 0.0 if qc > 0.0 else (-qb + math.sqrt(max(qb * qb - qa * qc, 0.0))) / qa
+            if alpha < 1.0:  # outside the cone: kinetic friction on its rim, and the particle slides
+                fric[p, FR_SLID] = 1.0
+            else:
+                alpha = 1.0
         fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2] = fx0 + alpha * ex, fy0 + alpha * ey, fz0 + alpha * ez
         g = w[p] * alpha
         x[p, 0] += g * ex
