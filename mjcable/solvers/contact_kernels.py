@@ -17,7 +17,11 @@ chord), and the split of the normal force between neighbouring chords is statica
 sweep leaves it alternating, big and small, while each particle's total is exact. So friction acts on particles:
 particle j's normal n̂ⱼ is the mean of its pressing contacts' normals weighted by its share ∇ⱼC_c of each (on a
 curve, the bisector of the two chords), its normal multiplier λₙⱼ = n̂ⱼ·Σ_c ∇ⱼC_c Δλₙ_c n_c (summed over its
-contacts and the substep's iterations), and its μ the largest of its contacts'.
+contacts and the substep's iterations), and its μ the largest of its contacts'. A contact whose normal opposes the
+particle's sum so far (a cable squeezed between two faces) is counted turned round, so that the cone holds the
+sum of both faces' normal impulses instead of their cancelling vector sum; the particle keeps one anchor, on the
+obstacle it is anchored on while it presses it (else the first it presses), and :func:`collect_impulses` shares
+its friction among the obstacles in proportion to their normal impulses.
 
 **Static friction with anchors** ([M20] §3.5, positional static friction; here kept across substeps and steps). A
 pressed particle has an anchor on the obstacle, stored in the obstacle's frame; it is set where the particle was
@@ -56,6 +60,10 @@ from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, FR_FN, FR_
 
 __all__ = ["shape_distance", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
            "reset_friction", "collect_impulses", "body_wrenches"]
+
+#: how far (in cable radii) a particle may leave its static-friction anchor during substeps in which it presses
+#: nothing, or presses another obstacle, and keep it (a body squeezing the cable may bounce off it for a substep)
+ANCHOR_REACH = 0.25
 
 
 @_inline
@@ -187,7 +195,7 @@ def reset_friction(fric):
 
 
 @_inline
-def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
+def contact_sweep(x, w, react, fric, anchor_ob, seg, geo, lam, shapes, radius):
     """Obstacle contacts: segment ``seg`` (C,), ``geo`` (C, 7) = [s, n₀ (3), offset, μ, obstacle row in
     ``shapes`` (B, 16) or −1], multipliers ``lam`` (C,). Projects C ≥ 0 (module docstring) against the obstacle's
     shape, and adds each particle's share of Δλₙ to ``fric`` (its normal sum, μ-weighted sum and normal vector, and
@@ -240,22 +248,30 @@ def contact_sweep(x, w, react, fric, seg, geo, lam, shapes, radius):
                 react[p, 0] += g * nx
                 react[p, 1] += g * ny
                 react[p, 2] += g * nz
+            if fric[p, FR_FN] == 0.0 or k == anchor_ob[p]:
+                # the particle's friction obstacle: the one it is anchored on while it presses on it, else the
+                # first it presses in the substep (a particle between two obstacles keeps one anchor)
+                fric[p, FR_OB] = k
             fric[p, FR_FN] += g
             fric[p, FR_MU] = max(fric[p, FR_MU], mu)
-            fric[p, FR_NX] += g * nx
-            fric[p, FR_NX + 1] += g * ny
-            fric[p, FR_NX + 2] += g * nz
-            fric[p, FR_GN] += f * nx
-            fric[p, FR_GN + 1] += f * ny
-            fric[p, FR_GN + 2] += f * nz
-            fric[p, FR_OB] = k
+            # a normal against the particle's summed one (a cable squeezed between two faces) counts turned round:
+            # the particle's cone is then Σ of both sides' normal impulses, not their cancelling vector sum
+            turn = -1.0 if fric[p, FR_GN] * nx + fric[p, FR_GN + 1] * ny + fric[p, FR_GN + 2] * nz < 0.0 else 1.0
+            fric[p, FR_NX] += turn * g * nx
+            fric[p, FR_NX + 1] += turn * g * ny
+            fric[p, FR_NX + 2] += turn * g * nz
+            fric[p, FR_GN] += turn * f * nx
+            fric[p, FR_GN + 1] += turn * f * ny
+            fric[p, FR_GN + 2] += turn * f * nz
 
 
 @_inline
-def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
+def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
     """Coulomb friction of every pressed particle against its anchor (module docstring): ``fric`` (N, N_FR) from
     :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,) (−1: none; a
-    new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
+    new anchor is set at the particle's substep start ``x0``). Held particles are skipped. A particle anchored on
+    another obstacle than the one it presses first (``fric``'s FR_OB) keeps that anchor while it starts the
+    substep within ``ANCHOR_REACH`` · ``radius`` of it: a cable squeezed between two faces holds on to one.
 
     The cone is the particle's: its normal n̂ is the mean of its pressing contacts' normals, weighted by the
     particle's share of each (the bisector of two chords on a curve), its normal impulse λₙ = n̂·Σ Δλ_c n_c, and
@@ -283,8 +299,10 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
         tcx, tcy, tcz = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
         cone = fric[p, FR_MU] * lam_n
         if anchor_ob[p] != k:
-            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
-            anchor_ob[p] = k
+            if not _near_anchor(shapes, anchor, anchor_ob, p, x0[p, 0], x0[p, 1], x0[p, 2], radius):
+                anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
+                anchor_ob[p] = k
+            k = anchor_ob[p]
         ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
         dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
         dn = dx * nx + dy * ny + dz * nz
@@ -316,13 +334,27 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
 
 
 @_inline
-def update_anchors(x, fric, anchor, anchor_ob, shapes):
-    """End of a substep: drop the anchors of particles that no longer press, move those of sliding particles to
-    where they are now (in their obstacle's frame), and zero the substep's sums (:func:`reset_friction`) of the
-    particles that had contacts."""
+def _near_anchor(shapes, anchor, anchor_ob, p, px, py, pz, radius):
+    """Whether particle p at (px, py, pz) has an anchor within ``ANCHOR_REACH`` · ``radius`` of it."""
+    k = anchor_ob[p]
+    if k < 0:
+        return False
+    ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
+    reach = ANCHOR_REACH * radius
+    return (px - ax) ** 2 + (py - ay) ** 2 + (pz - az) ** 2 <= reach * reach
+
+
+@_inline
+def update_anchors(x, fric, anchor, anchor_ob, shapes, radius):
+    """End of a substep: drop the anchors of particles that no longer press and have left them by more than
+    ``ANCHOR_REACH`` · ``radius`` (a particle between two faces may miss both for a substep while a body that
+    presses it settles), move those of sliding particles to where they are now (in their obstacle's frame), and
+    zero the substep's sums (:func:`reset_friction`) of the particles that had contacts."""
     for p in range(x.shape[0]):
         if fric[p, FR_FN] <= 0.0:
-            anchor_ob[p] = -1
+            if anchor_ob[p] >= 0 and not _near_anchor(shapes, anchor, anchor_ob, p, x[p, 0], x[p, 1], x[p, 2],
+                                                      radius):
+                anchor_ob[p] = -1
             continue
         if anchor_ob[p] >= 0 and fric[p, FR_SLID] > 0.0:
             anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, anchor_ob[p], x[p, 0], x[p, 1], x[p, 2])
@@ -398,14 +430,16 @@ def _add_impulse(out, k, px, py, pz, jx, jy, jz):
 
 
 @_jit
-def collect_impulses(x, fric, seg, geo, lam, shapes, radius, out):
+def collect_impulses(x, w, fric, seg, geo, lam, shapes, radius, out):
     """End of a substep, before :func:`update_anchors`: add each obstacle's contact impulses on the cable in this
     substep to its row of ``out`` (B, 6) = [Σ j, Σ point × j] (kg·m and kg·m², about the world origin; the
-    caller zeroes it). Normal: contact c's Σ Δλₙ (``lam``) along its normal at the axis point now (the cable
-    side's ∇C Δλ summed over both particles, held ones included); friction: each free particle's friction
-    impulse (``fric``'s FR_FT) on the obstacle of its last contact (FR_OB), at its contact point x − r n̂. Σ j / h
-    is the momentum the obstacle gave the cable (Σ m Δx for free particles), −Σ j / h² the force on the obstacle.
-    Self contacts are internal and give nothing."""
+    caller zeroes it). Normal: contact c's Σ Δλₙ (``lam``) along its normal n_c at the axis point now (the cable
+    side's ∇C Δλ summed over both particles, held ones included). Friction: each free particle's friction impulse
+    f (``fric``'s FR_FT) is shared among the contacts that pressed it in proportion to their normal impulses on
+    it, g_c / Σ g (FR_FN), each share at the particle's contact point x − r n_c: a cable squeezed between a table
+    and a weight drags both by the friction of each side. Σ j / h is the momentum the obstacle gave the cable
+    (Σ m Δx for free particles), −Σ j / h² the force on the obstacle. Self contacts are internal and give
+    nothing."""
     for c in range(seg.shape[0]):
         k = int(geo[c, 6])
         if k < 0 or lam[c] == 0.0:
@@ -418,17 +452,14 @@ def collect_impulses(x, fric, seg, geo, lam, shapes, radius, out):
         _, nx, ny, nz = shape_distance(px, py, pz, shapes, k, geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4], radius)
         g = lam[c]
         _add_impulse(out, k, px, py, pz, g * nx, g * ny, g * nz)
-    for p in range(x.shape[0]):
-        k = int(fric[p, FR_OB])
-        if fric[p, FR_FN] <= 0.0 or k < 0:
-            continue
-        jx, jy, jz = fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2]
-        if jx == 0.0 and jy == 0.0 and jz == 0.0:
-            continue
-        nx, ny, nz = fric[p, FR_GN], fric[p, FR_GN + 1], fric[p, FR_GN + 2]
-        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
-        r = radius / norm if norm > 0.0 else 0.0
-        _add_impulse(out, k, x[p, 0] - r * nx, x[p, 1] - r * ny, x[p, 2] - r * nz, jx, jy, jz)
+        for p, f in ((i, 1.0 - s), (i + 1, s)):
+            if f == 0.0 or w[p] == 0.0 or fric[p, FR_FN] <= 0.0:
+                continue
+            share = f * g / fric[p, FR_FN]
+            jx, jy, jz = share * fric[p, FR_FT], share * fric[p, FR_FT + 1], share * fric[p, FR_FT + 2]
+            if jx != 0.0 or jy != 0.0 or jz != 0.0:
+                _add_impulse(out, k, x[p, 0] - radius * nx, x[p, 1] - radius * ny, x[p, 2] - radius * nz,
+                             jx, jy, jz)
 
 
 @_jit
