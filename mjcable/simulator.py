@@ -142,7 +142,9 @@ class Simulator:
 
         The pins together carry the whole cable's weight at rest, the pinned particles' own share included; a
         clamp's force is included (its torque is :attr:`pin_torques`); a released socket's row is zero. Native
-        models report the last constraint solve (the state at the start of the last MuJoCo step).
+        models report the last constraint solve (the state at the start of the last MuJoCo step), the particle
+        solvers the force averaged over the last step's substeps (the step's impulse / dt). Sockets let go on the
+        same quantity.
         """
         return self._backend.pin_forces()
 

@@ -18,7 +18,8 @@ Coupling scheme of a body pin (particle p held at the point b(q) fixed in a body
    semi-implicit step, so the cable pulls the body with F + m_p g (m_p the particle's own lumped mass, which the
    body carries), applied at the point (``xfrc_applied``: force and its moment about the body's centre of mass);
 4. the real ``mj_step`` with that force; the particle is put where the body point went, with the body point's
-   velocity. ``Simulator.pin_forces`` reports −(F + m_p g), the force holding the particle, as for other pins.
+   velocity. ``Simulator.pin_forces`` reports −(F + m_p g), the force holding the particle, averaged over the step's
+   substeps as for other pins.
 
 The coupling is implicit in the body's inertia along the cable (a heavy box hanging from a light cable is held in
 one substep), and exact where J M⁻¹ Jᵀ is isotropic, e.g. a free body pinned at a point on a principal axis through
@@ -195,6 +196,9 @@ class Host:
                 f[moving] = (S.x[self.particles[moving]] - free[moving]) / (free_w[moving, None] * h * h)
                 f[moving] += S.mass[self.particles[moving], None] * self.gravity
                 f[~moving] = -S.pin_force[self.pins[~moving]]
+                # the kernel counted −m g for a moving pin (its particle was free): its step sum takes −f instead
+                held = self.pins[moving]
+                S.pin_sum[held, kernels.PS_F:kernels.PS_F + 3] += -f[moving] - S.pin_force[held]
                 S.pin_force[self.pins[moving]] = -f[moving]
                 applied = np.zeros((len(self.pins), 6))
                 applied[:, :3] = f

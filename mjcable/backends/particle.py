@@ -348,11 +348,18 @@ class ParticleBackend:
                 w[index] = 1.0 / m[index]
 
     def pin_forces(self) -> np.ndarray:
-        """Each pin's force on its particle in the last substep (XPBD's force estimate ∇Cᵀλ / h² over the
-        constraints on the held particle, plus its weight: :func:`mjcable.solvers.kernels.end_substep`); zero rows
-        for released sockets."""
-        f = self.state.pin_force.copy()
-        f[~self.state.pin_active] = 0.0
+        """Each pin's force on its particle, averaged over the last step's substeps: F̄ = Σ_s F_s / n = J / dt,
+        J the impulse the pin gave its particle in the step, F_s its force in substep s (XPBD's force estimate
+        ∇Cᵀλ / h² over the constraints on the held particle, plus its weight; a host body pin's coupling force:
+        :func:`mjcable.solvers.kernels.end_substep`). Sockets let go on this same mean (as native sockets on
+        MuJoCo's constraint force of one step): one substep's force is not a measure of the pull, since a
+        positional solver settles a violation (a contact's penetration, the stretch it leaves) within one substep,
+        as a force spike of that substep. Zero rows before the first step and for released sockets."""
+        S = self.state
+        count = S.pin_sum[:, kernels.PS_N, None]
+        f = np.divide(S.pin_sum[:, kernels.PS_F:kernels.PS_F + 3], count, out=np.zeros((len(count), 3)),
+                      where=count > 0)
+        f[~S.pin_active] = 0.0
         return f
 
     def pin_torques(self) -> np.ndarray:

@@ -10,7 +10,8 @@ Eqs. (17)–(18)::
 with k = 1 for XPBD; α = 0 gives PBD's projection (thesis Eqs. 2.11–2.12; Müller et al. 2007) with its
 stiffness k, and Jakobsen's mass-weighted stick (Jakobsen 2001, "Cloth simulation", the ``invmass`` form).
 Held particles (pins) have w = 0; the ∇C Δλ they would receive is summed in ``react`` so that the pin force is
-known (XPBD's constraint force estimate ∇Cᵀ λ / h², Macklin et al. 2016).
+known (XPBD's constraint force estimate ∇Cᵀ λ / h², Macklin et al. 2016); sockets decide on its mean over the
+step's substeps (the step's impulse / dt, :func:`end_substep`).
 
 Performance notes (measured, numba 0.68, 100 particles): a per-constraint helper that takes arrays ran 3× slower
 than the same arithmetic written inline, even with ``inline="always"``, and every call passing the 33-array state
@@ -59,6 +60,7 @@ from mjcable.solvers.direct_kernels import (
 from mjcable.solvers.kernels_layout import (
     _F_ALPHA_B, _F_ALPHA_C, _F_ALPHA_S, _F_DAMP, _F_GX, _F_GY, _F_GZ, _F_H, _F_INV_L0SQ, _F_K_B,  # noqa: F401
     _F_K_C, _F_K_S, _F_OMEGA, _F_RADIUS, _I_BEND, _I_BW, _I_DIRECT_ALL, _I_ITER, _I_ORDER, _I_SQRT,  # noqa: F401
+    _I_SUBSTEPS, N_PS, PS_F, PS_N,  # noqa: F401
     _F_MU_SELF, _L_DISTANCE, _L_DT, _L_FALL, _L_MARGIN, _L_RADIUS, _L_SPEED, _TINY_LENGTH, _TINY_SLIP,  # noqa: F401
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, FP, IP, LIM, N_FP, N_IP, ORDER_DIRECT,  # noqa: F401
     ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PHASE_ALL, PHASE_BEGIN, PHASE_END, PHASE_ITERATE, ROW_CLAMP,  # noqa: F401
@@ -80,7 +82,8 @@ __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_
 def begin_substep(S, C, sub, n_sub):
     """Predict (semi-implicit Euler in velocity form: v ← e^{−c h} v + h g, x ← x + h v; Verlet is the same
     recurrence with v read as (x − x_prev)/h, [T20] Eq. 2.7 with Jakobsen's damping), move held particles to their
-    pin targets (interpolated linearly across the step), reset multipliers (every substep, [M16] Algorithm 1) and reactions."""
+    pin targets (interpolated linearly across the step), reset multipliers (every substep, [M16] Algorithm 1) and
+    reactions, and, at a step's first substep, the pins' force sums (``pin_sum``, :func:`end_substep`)."""
     fp = S.fp
     h, damp = fp[_F_H], fp[_F_DAMP]
     gx, gy, gz = fp[_F_GX], fp[_F_GY], fp[_F_GZ]
@@ -101,8 +104,10 @@ def begin_substep(S, C, sub, n_sub):
             x[p, 1] += h * v[p, 1]
             x[p, 2] += h * v[p, 2]
     frac = (sub + 1.0) / n_sub
-    pin_from, pin_to = S.pin_from, S.pin_to
+    pin_from, pin_to, sums = S.pin_from, S.pin_to, S.pin_sum
     for k in range(S.pin_p.shape[0]):
+        if sums[k, PS_N] >= S.ip[_I_SUBSTEPS]:  # the last step's sums are complete: this substep starts a new step
+            sums[k, :] = 0.0
         if S.pin_active[k]:
             p = S.pin_p[k]
             for comp in range(3):
@@ -183,9 +188,21 @@ def iterate(S, C):
 
 @_inline
 def end_substep(S, C):
-    """Contact anchors (:func:`update_anchors`); v = (x − x₀)/h; pin forces from the reactions, F = −Σ ∇C λ / h² − m g (the force that holds the particle,
-    [M16]'s force estimate); sockets whose force exceeds their release force let go (with their clamp). Returns the number
-    released."""
+    """Contact anchors (:func:`update_anchors`); v = (x − x₀)/h; the pins' forces; sockets let go. Returns the number
+    released.
+
+    A held particle's force, the force that holds it ([M16]'s force estimate ∇Cᵀλ / h²), in substep s:
+    F_s = −Σ ∇C λ / h² − m g, from its reactions ``react`` (stretch, bending, clamp and contact shares); it goes
+    to ``pin_force`` (the host's body pins couple through it every substep) and is added to ``pin_sum``. At the
+    step's last substep (``pin_sum`` holds ``ip[substeps]`` of them) a socket lets go, with its clamp, if the
+    step's mean force |F̄| = |Σ_s F_s| / n exceeds its release force. F̄ = J / dt, J = Σ_s F_s h the impulse the
+    pin gave its particle over the step: the force that would give the same momentum held for the whole step, the
+    quantity MuJoCo's constraint force of one step is (native sockets decide on it per step). A single substep's
+    F_s is not: a positional solver settles a violation in one substep, so a contact that pushes a segment out of
+    a moving body (the Jaco hand's finger tip, measured: 8.7 N at a cable segment 3 segments from the grip) leaves
+    the chain over-long and the next substep's stretch solve pulls all of it, up to the socket 22 segments away,
+    with 18 N for that 0.2 ms substep (3.6 mN·s, at 0.85 N before), a socket of 5 N let go at that spike at
+    t = 0.67 s; the step's mean is 2.4 N, and the socket lets go at 0.76 s at 4.6 N, as the native models."""
     fp = S.fp
     inv_h = 1.0 / fp[_F_H]
     inv_h2 = inv_h * inv_h
@@ -199,6 +216,7 @@ def end_substep(S, C):
         v[p, 1] = (x[p, 1] - x0[p, 1]) * inv_h
         v[p, 2] = (x[p, 2] - x0[p, 2]) * inv_h
     released = 0
+    sums = S.pin_sum
     for k in range(S.pin_p.shape[0]):
         if not S.pin_active[k]:
             continue
@@ -208,10 +226,17 @@ def end_substep(S, C):
         fy = -S.react[p, 1] * inv_h2 - m * fp[_F_GY]
         fz = -S.react[p, 2] * inv_h2 - m * fp[_F_GZ]
         S.pin_force[k, 0], S.pin_force[k, 1], S.pin_force[k, 2] = fx, fy, fz
-        if math.sqrt(fx * fx + fy * fy + fz * fz) > S.pin_release[k]:
-            S.pin_active[k] = False
-            S.w[p] = 1.0 / m
-            released += 1
+        sums[k, PS_F] += fx
+        sums[k, PS_F + 1] += fy
+        sums[k, PS_F + 2] += fz
+        sums[k, PS_N] += 1.0
+        if sums[k, PS_N] >= S.ip[_I_SUBSTEPS]:
+            n = sums[k, PS_N]
+            mx, my, mz = sums[k, PS_F] / n, sums[k, PS_F + 1] / n, sums[k, PS_F + 2] / n
+            if math.sqrt(mx * mx + my * my + mz * mz) > S.pin_release[k]:
+                S.pin_active[k] = False
+                S.w[p] = 1.0 / m
+                released += 1
     return released
 
 
@@ -246,14 +271,14 @@ def run_substeps(S, C, n_sub, phase, sub):
 
 @_nogil
 def run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-                      clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind,
-                      row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair,
-                      sgeo, slam, shapes, impulse, n_sub, phase, sub):
+                      clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum,
+                      row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo,
+                      lam, pair, sgeo, slam, shapes, impulse, n_sub, phase, sub):
     """:func:`run_substeps` with the state's arrays as separate arguments (``*chain, *contacts, n_sub, phase,
     sub``): numba types plain array arguments in C but a named tuple of 40 arrays in Python (about 25 µs a call)."""
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
-              row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
+              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
+              row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
     C = Contacts(seg, geo, lam, pair, sgeo, slam, shapes, impulse)
     return run_substeps(S, C, n_sub, phase, sub)
 
@@ -317,10 +342,10 @@ def _step_checks(x, v, prev, lim):
 
 @_nogil
 def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-                   clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
-                   row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo,
-                   slam, shapes, impulse, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev, rows,
-                   out_x, out_v, clock, path, path_pins, until_release):
+                   clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
+                   row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair,
+                   sgeo, slam, shapes, impulse, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev,
+                   rows, out_x, out_v, clock, path, path_pins, until_release):
     """Up to ``n_steps`` whole steps of ``n_sub`` substeps (:func:`run_substeps`) in one call (``*chain,
     *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones none. After each
     step, as the Python step: the pins' start moves to their target (a gripper move spreads over one step),
@@ -337,8 +362,8 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
       caller queries its contacts;
     * after a step in which a socket let go, if ``until_release``."""
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, row_kind, row_idx,
-              row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
+              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
+              row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
     given = Contacts(seg, geo, lam, pair, sgeo, slam, shapes, impulse)
     none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0], shapes, impulse)
     obstacles = box_lo.shape[0] + plane_n.shape[0] > 0

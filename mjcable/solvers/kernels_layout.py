@@ -14,7 +14,7 @@ from collections import namedtuple
 # Indices into Chain.fp (floats) and Chain.ip (integers): named, so that driver and kernels agree.
 FP = dict(h=0, damp=1, gx=2, gy=3, gz=4, alpha_s=5, alpha_b=6, alpha_c=7, k_s=8, k_b=9, k_c=10, inv_l0sq=11,
           omega=12, radius=13, mu_self=14)
-IP = dict(iterations=0, order=1, bending=2, sqrt=3, bandwidth=4, direct_all=5)
+IP = dict(iterations=0, order=1, bending=2, sqrt=3, bandwidth=4, direct_all=5, substeps=6)
 # Indices into run_steps_flat's ``lim`` (floats): step (s), divergence limits (m, m/s), the contact query's terms.
 LIM = dict(dt=0, max_distance=1, max_speed=2, contact_margin=3, fall=4, radius=5)
 N_FP = len(FP)
@@ -22,7 +22,7 @@ N_IP = len(IP)
 _F_H, _F_DAMP, _F_GX, _F_GY, _F_GZ = 0, 1, 2, 3, 4
 _F_ALPHA_S, _F_ALPHA_B, _F_ALPHA_C, _F_K_S, _F_K_B, _F_K_C = 5, 6, 7, 8, 9, 10
 _F_INV_L0SQ, _F_OMEGA, _F_RADIUS, _F_MU_SELF = 11, 12, 13, 14
-_I_ITER, _I_ORDER, _I_BEND, _I_SQRT, _I_BW, _I_DIRECT_ALL = 0, 1, 2, 3, 4, 5
+_I_ITER, _I_ORDER, _I_BEND, _I_SQRT, _I_BW, _I_DIRECT_ALL, _I_SUBSTEPS = 0, 1, 2, 3, 4, 5, 6
 _L_DT, _L_DISTANCE, _L_SPEED, _L_MARGIN, _L_FALL, _L_RADIUS = 0, 1, 2, 3, 4, 5
 
 ORDER_GAUSS_SEIDEL, ORDER_JACOBI, ORDER_DIRECT = 0, 1, 2
@@ -37,6 +37,9 @@ SH_TYPE, SH_SIZE, SH_POS, SH_ROT, N_SH = 0, 1, 4, 7, 16
 # row of its last contact (kept across substeps).
 FR_FN, FR_MU, FR_SLID, FR_NX, FR_FT, FR_GN, FR_OB, N_FR = 0, 1, 2, 3, 6, 9, 12, 13
 PHASE_ALL, PHASE_BEGIN, PHASE_ITERATE, PHASE_END = 0, 1, 2, 3
+# Columns of Chain.pin_sum (P, 4): the sum of a pin's substep forces over the current step (N) and how many substeps
+# it holds; the step's mean force is their ratio (kernels.end_substep).
+PS_F, PS_N, N_PS = 0, 3, 4
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
 _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
@@ -49,6 +52,7 @@ Chain = namedtuple("Chain", [
     "lam_b",  # curvature bending at particle b+1: multipliers (n-1, 3)
     "clamp_pq", "clamp_pin", "clamp_dir", "lam_c",  # clamps (K, 2) [pin particle, neighbour], (K,), (K, 2, 3), (K, 2)
     "pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force",  # pins (P,), (P, 3), ..., (P, 3)
+    "pin_sum",  # (P, 4): per pin, Σ of the step's substep forces so far (N, columns PS_F..+2), their count (PS_N)
     "row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs",  # direct order: the banded system
     "fric", "anchor", "anchor_ob",  # friction: per-particle sums (N, N_FR), anchors (N, 3) in obstacle anchor_ob (N,)
     "fp", "ip",  # parameters (N_FP,), (N_IP,)

@@ -153,6 +153,7 @@ def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float)
     ip[IP["sqrt"]] = int(rules.sqrt_approx)
     ip[IP["bandwidth"]] = rows.pop("bandwidth")
     ip[IP["direct_all"]] = int(rules.direct_bending)
+    ip[IP["substeps"]] = settings.substeps
     return kernels.Chain(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
         count=np.zeros(n_particles),
@@ -161,7 +162,7 @@ def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float)
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
         lam_c=np.zeros((len(clamps), 2)),
         pin_p=pin_p, pin_from=pin_from, pin_to=pin_from.copy(), pin_active=np.ones(len(pins), dtype=np.bool_),
-        pin_release=release, pin_force=np.zeros((len(pins), 3)),
+        pin_release=release, pin_force=np.zeros((len(pins), 3)), pin_sum=np.zeros((len(pins), kernels.N_PS)),
         fric=np.zeros((n_particles, kernels.N_FR)), anchor=np.zeros((n_particles, 3)),
         anchor_ob=np.full(n_particles, -1, dtype=np.int64),
         fp=fp, ip=ip, **rows,
