@@ -83,8 +83,8 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
 def _plane_contact(x, x0, w, react, fric, seg, geo, lam, shapes, r, anchor, anchor_ob):
     contact_kernels.reset_friction(fric)
     contact_kernels.contact_sweep(x, w, react, fric, anchor_ob, seg, geo, lam, shapes, r)
-    contact_kernels.friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, r)
-    contact_kernels.update_anchors(x, fric, anchor, anchor_ob, shapes, r)
+    contact_kernels.friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes)
+    contact_kernels.update_anchors(x, fric, anchor, anchor_ob, shapes)
 
 
 @pytest.mark.parametrize("self_contact", [True, False], ids=["on itself", "on a table"])

@@ -20,7 +20,7 @@ curve, the bisector of the two chords), its normal multiplier λₙⱼ = n̂ⱼ�
 contacts and the substep's iterations), and its μ the largest of its contacts'. A contact whose normal opposes the
 particle's sum so far (a cable squeezed between two faces) is counted turned round, so that the cone holds the
 sum of both faces' normal impulses instead of their cancelling vector sum; the particle keeps one anchor, on the
-obstacle it is anchored on while it presses it (else the first it presses), and :func:`collect_impulses` shares
+obstacle it is anchored on while it presses it (else the first it presses in the substep), and :func:`collect_impulses` shares
 its friction among the obstacles in proportion to their normal impulses.
 
 **Static friction with anchors** ([M20] §3.5, positional static friction; here kept across substeps and steps). A
@@ -60,10 +60,6 @@ from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, FR_FN, FR_
 
 __all__ = ["shape_distance", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
            "reset_friction", "collect_impulses", "body_wrenches"]
-
-#: how far (in cable radii) a particle may leave its static-friction anchor during substeps in which it presses
-#: nothing, or presses another obstacle, and keep it (a body squeezing the cable may bounce off it for a substep)
-ANCHOR_REACH = 0.25
 
 
 @_inline
@@ -266,12 +262,10 @@ def contact_sweep(x, w, react, fric, anchor_ob, seg, geo, lam, shapes, radius):
 
 
 @_inline
-def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
+def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
     """Coulomb friction of every pressed particle against its anchor (module docstring): ``fric`` (N, N_FR) from
     :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,) (−1: none; a
-    new anchor is set at the particle's substep start ``x0``). Held particles are skipped. A particle anchored on
-    another obstacle than the one it presses first (``fric``'s FR_OB) keeps that anchor while it starts the
-    substep within ``ANCHOR_REACH`` · ``radius`` of it: a cable squeezed between two faces holds on to one.
+    new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
 
     The cone is the particle's: its normal n̂ is the mean of its pressing contacts' normals, weighted by the
     particle's share of each (the bisector of two chords on a curve), its normal impulse λₙ = n̂·Σ Δλ_c n_c, and
@@ -299,10 +293,8 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
         tcx, tcy, tcz = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
         cone = fric[p, FR_MU] * lam_n
         if anchor_ob[p] != k:
-            if not _near_anchor(shapes, anchor, anchor_ob, p, x0[p, 0], x0[p, 1], x0[p, 2], radius):
-                anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
-                anchor_ob[p] = k
-            k = anchor_ob[p]
+            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
+            anchor_ob[p] = k
         ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
         dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
         dn = dx * nx + dy * ny + dz * nz
@@ -334,27 +326,13 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes, radius):
 
 
 @_inline
-def _near_anchor(shapes, anchor, anchor_ob, p, px, py, pz, radius):
-    """Whether particle p at (px, py, pz) has an anchor within ``ANCHOR_REACH`` · ``radius`` of it."""
-    k = anchor_ob[p]
-    if k < 0:
-        return False
-    ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
-    reach = ANCHOR_REACH * radius
-    return (px - ax) ** 2 + (py - ay) ** 2 + (pz - az) ** 2 <= reach * reach
-
-
-@_inline
-def update_anchors(x, fric, anchor, anchor_ob, shapes, radius):
-    """End of a substep: drop the anchors of particles that no longer press and have left them by more than
-    ``ANCHOR_REACH`` · ``radius`` (a particle between two faces may miss both for a substep while a body that
-    presses it settles), move those of sliding particles to where they are now (in their obstacle's frame), and
-    zero the substep's sums (:func:`reset_friction`) of the particles that had contacts."""
+def update_anchors(x, fric, anchor, anchor_ob, shapes):
+    """End of a substep: drop the anchors of particles that no longer press, move those of sliding particles to
+    where they are now (in their obstacle's frame), and zero the substep's sums (:func:`reset_friction`) of the
+    particles that had contacts."""
     for p in range(x.shape[0]):
         if fric[p, FR_FN] <= 0.0:
-            if anchor_ob[p] >= 0 and not _near_anchor(shapes, anchor, anchor_ob, p, x[p, 0], x[p, 1], x[p, 2],
-                                                      radius):
-                anchor_ob[p] = -1
+            anchor_ob[p] = -1
             continue
         if anchor_ob[p] >= 0 and fric[p, FR_SLID] > 0.0:
             anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, anchor_ob[p], x[p, 0], x[p, 1], x[p, 2])

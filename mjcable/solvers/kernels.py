@@ -181,7 +181,7 @@ def iterate(S, C):
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
     if C.seg.shape[0]:
         contact_sweep(x, w, S.react, S.fric, S.anchor_ob, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS])
-        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, C.shapes, fp[_F_RADIUS])
+        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, C.shapes)
     if C.pair.shape[0]:
         self_contact_sweep(x, S.x0, w, S.react, C.pair, C.sgeo, 2.0 * fp[_F_RADIUS], fp[_F_MU_SELF], C.slam)
 
@@ -210,7 +210,7 @@ def end_substep(S, C):
     if C.shapes.shape[0]:
         if C.impulse.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
             collect_impulses(x, S.w, S.fric, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS], C.impulse)
-        update_anchors(x, S.fric, S.anchor, S.anchor_ob, C.shapes, fp[_F_RADIUS])
+        update_anchors(x, S.fric, S.anchor, S.anchor_ob, C.shapes)
     for p in range(x.shape[0]):
         v[p, 0] = (x[p, 0] - x0[p, 0]) * inv_h
         v[p, 1] = (x[p, 1] - x0[p, 1]) * inv_h
