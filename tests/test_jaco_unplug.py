@@ -143,7 +143,12 @@ def test_random_policy_stays_finite(model, seed):
 # --- the task is solvable: retreating from the wall pulls the plug out ----------------------------------------------
 
 
-@pytest.mark.parametrize("model", [m if m in _QUICK else pytest.param(m, marks=pytest.mark.slow) for m in MODELS])
+# the quick run retreats with the native models; xpbd's release in this task is quick in test_socket_release.py
+_RETREAT_QUICK = ("joints", "composite", "flexrod", "springs")
+
+
+@pytest.mark.parametrize("model", [m if m in _RETREAT_QUICK else pytest.param(m, marks=pytest.mark.slow)
+                                   for m in MODELS])
 def test_retreating_arm_releases_the_plug(model):
     env = envs.load(TASK, model, random=0, time_limit=3.0)
     ts = env.reset()
