@@ -117,6 +117,7 @@ def test_divergence_names_the_copy_after_the_others_have_stepped(table):
     assert np.array_equal(batch.positions[2], reference.positions)
 
 
+@pytest.mark.slow  # about 7 s
 def test_batch_env_equals_single_environments():
     actions = np.random.default_rng(0).uniform(-1.0, 1.0, (4, 2, 3)) * 0.005  # reach_sag: one gripper, 3 numbers
     batch = mjcable.envs.load_batch("reach_sag", "xpbd", 2, random=5, threads=2, time_limit=1.0)

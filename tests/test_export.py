@@ -40,7 +40,9 @@ def test_models_folder_has_no_stray_files():
     assert not stray, f"files in models/ that `mjcable export` does not write: {stray}"
 
 
-@pytest.mark.parametrize("path", committed_files(), ids=lambda p: p.name)
+# the composite files (the same capsule chain as the joints files, with the cable plugin) load with the slow tests
+@pytest.mark.parametrize("path", [p if "composite" not in p.name else pytest.param(p, marks=pytest.mark.slow)
+                                  for p in committed_files()], ids=lambda p: p.name)
 def test_model_file_loads_with_both_loaders_and_steps_without_warnings(path):
     export.check_file(path, seconds=export.CHECK_SECONDS)
 

@@ -20,6 +20,9 @@ from mjcable.mjcf import springs as springs_mjcf
 
 MODELS = tuple(mjcable.catalog.names())
 INEXTENSIBLE = ("joints", "composite", "flexrod", "xpbd")
+# the physics tests' quick run: pbd and jakobsen (Gauss-Seidel cousins of xpbd, a few seconds each) go with the slow
+# tests, which CI runs too
+PHYSICS_MODELS = tuple(m if m not in ("pbd", "jakobsen") else pytest.param(m, marks=pytest.mark.slow) for m in MODELS)
 # flexrod's soft edge equality and pins need substeps under an end mass 100-2000 times a particle's
 SETTINGS = {"flexrod": {"substeps": 4}}
 
@@ -51,7 +54,7 @@ def _weight_scene() -> Scene:
                  world=mujoco.MjSpec.from_string(xml))
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", PHYSICS_MODELS)
 def test_a_box_hangs_from_the_cable_in_the_worlds_gravity(model):
     scene = _weight_scene()
     sim = _sim(scene, model)
@@ -93,7 +96,7 @@ def _pendulum_scene() -> Scene:
     return Scene(cable, (Pin(0), Pin(-1, "body", body="box")), world=mujoco.MjSpec.from_string(xml))
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", PHYSICS_MODELS)
 def test_a_box_on_a_light_cable_swings_with_the_rigid_pendulums_period(model):
     sim = _sim(_pendulum_scene(), model)
     box = sim.mj_model.body("box").id
@@ -135,7 +138,7 @@ def _arm_rest(spec: mujoco.MjSpec) -> float:
     return float(d.qpos[0])
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", PHYSICS_MODELS)
 def test_an_actuated_arm_sags_by_the_hanging_cables_moment(model):
     spec = mujoco.MjSpec.from_string(ARM_XML)
     alone = _arm_rest(spec)
@@ -237,7 +240,7 @@ DRAG_XML = f"""<mujoco><option cone="elliptic" impratio="10" noslip_iterations="
   </worldbody><actuator><motor name="pull" joint="pull" ctrlrange="0 20"/></actuator></mujoco>"""
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", PHYSICS_MODELS)
 def test_a_cable_drags_a_box_once_its_pull_reaches_static_friction(model):
     """A motor pulls the cable's far end (a body pin on a slider) with a force rising at 1 N/s; the cable's near end
     is a body pin on a 1 kg box on a table. The box starts to move when the cable's pull reaches μ M g. (Moving
