@@ -87,6 +87,66 @@ class BatchTrajectory:
         return Trajectory(times=self.times, positions=self.positions[i], velocities=self.velocities[i])
 
 
+class ChunkPool:
+    """``n`` items run on up to ``threads`` worker threads, in contiguous chunks, one chunk per thread (each thread
+    runs its items in order); with one thread the items run one after another in the calling thread. Shared by
+    :class:`Batch` and :class:`mjcable.envs.BatchEnv`.
+
+    Args:
+      n: number of items (>= 1).
+      threads: worker threads (>= 1); never more than ``n`` are used.
+      name: the worker threads' name prefix.
+    """
+
+    def __init__(self, n: int, threads: int, name: str):
+        self.n, self.threads, self.name = n, min(threads, n), name
+        self._chunks = [range(i * n // self.threads, (i + 1) * n // self.threads) for i in range(self.threads)]
+        self._pool = None
+        self._lock = threading.Lock()
+
+    def run(self, work) -> tuple:
+        """``work(i)`` for every item, all of them even if one raises.
+
+        Returns:
+          (``n`` results in order, ``{i: SimulationDivergedError}`` of the items that diverged).
+
+        Raises:
+          Any other error of an item, after every item has run.
+        """
+        out, errors, other = [None] * self.n, {}, []
+
+        def chunk(items):
+            for i in items:
+                try:
+                    out[i] = work(i)
+                except SimulationDivergedError as exc:
+                    errors[i] = exc
+                except Exception as exc:  # noqa: BLE001 - re-raised below, after every item has run
+                    other.append(exc)
+
+        if self.threads == 1:
+            chunk(range(self.n))
+        else:
+            list(self._executor().map(chunk, self._chunks))
+        if other:
+            raise other[0]
+        return out, errors
+
+    def _executor(self) -> concurrent.futures.ThreadPoolExecutor:
+        with self._lock:
+            if self._pool is None:
+                self._pool = concurrent.futures.ThreadPoolExecutor(self.threads, thread_name_prefix=self.name)
+                self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=False)
+            return self._pool
+
+    def close(self) -> None:
+        """Stop the worker threads (a later :meth:`run` starts them again); also on garbage collection."""
+        with self._lock:
+            if self._pool is not None:
+                self._finalizer()
+                self._pool = None
+
+
 def _copy_scenes(scene: Scene, n: int, params) -> tuple:
     """The ``n`` scenes of a batch: ``scene`` with the cable fields of ``params`` (key -> (n,) values) replaced."""
     if params is None:
@@ -155,57 +215,31 @@ class Batch:
         catalog.check_dt(dt)
         catalog.make_settings(model, **settings)  # every setting checked before anything is built
         self.scenes = _copy_scenes(scene, n, params)
-        self.scene, self.model, self.n, self.threads = scene, model, n, min(threads, n)
+        self.scene, self.model, self.n = scene, model, n
         self._sims = tuple(Simulator(s, model, dt=dt, **settings) for s in self.scenes)
         self.dt, self.settings = self._sims[0].dt, self._sims[0].settings
-        # contiguous chunks of copies, one per thread (each thread steps its copies in order)
-        self._chunks = [range(i * n // self.threads, (i + 1) * n // self.threads) for i in range(self.threads)]
-        self._pool = None
-        self._pool_lock = threading.Lock()
+        self._pool = ChunkPool(n, threads, "mjcable-batch")
+        self.threads = self._pool.threads
         self._diverged = None  # the copies of the last BatchDivergedError, until reset()
 
     # -- the pool -------------------------------------------------------------------------------------------------
 
-    def _map(self, work) -> None:
-        """Run ``work(i)`` for every copy (in its thread's chunk, in order); every copy runs even if another raises.
-        Raises :class:`BatchDivergedError` for the copies that diverged; any other error after all have run."""
+    def _map(self, work) -> list:
+        """``work(i)`` for every copy (:class:`ChunkPool`: in its thread's chunk, in order), every copy even if
+        another raises; their results. Raises :class:`BatchDivergedError` for the copies that diverged; any other
+        error after all have run."""
         if self._diverged is not None:
             raise RuntimeError(f"copies {list(self._diverged)} of this batch diverged; call reset() before stepping "
                                f"it again")
-        errors, other = {}, []
-
-        def chunk(copies):
-            for i in copies:
-                try:
-                    work(i)
-                except SimulationDivergedError as exc:
-                    errors[i] = exc
-                except Exception as exc:  # noqa: BLE001 - re-raised below, after every copy has run
-                    other.append(exc)
-
-        if self.threads == 1:
-            chunk(range(self.n))
-        else:
-            list(self._executor().map(chunk, self._chunks))
-        if other:
-            raise other[0]
+        out, errors = self._pool.run(work)
         if errors:
             self._diverged = tuple(sorted(errors))
             raise BatchDivergedError(errors, self.n)
-
-    def _executor(self) -> concurrent.futures.ThreadPoolExecutor:
-        with self._pool_lock:
-            if self._pool is None:
-                self._pool = concurrent.futures.ThreadPoolExecutor(self.threads, thread_name_prefix="mjcable-batch")
-                self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=False)
-            return self._pool
+        return out
 
     def close(self) -> None:
         """Stop the worker threads (a later step starts them again); also on garbage collection."""
-        with self._pool_lock:
-            if self._pool is not None:
-                self._finalizer()
-                self._pool = None
+        self._pool.close()
 
     def __enter__(self) -> "Batch":
         return self
@@ -275,12 +309,7 @@ class Batch:
         seconds = _validate.number("seconds", seconds, low=0.0, unit="s")
         if every is not None:
             _validate.integer("every", every, low=1)
-        out = [None] * self.n
-
-        def work(i):
-            out[i] = self._sims[i].rollout(seconds, every=every)
-
-        self._map(work)
+        out = self._map(lambda i: self._sims[i].rollout(seconds, every=every))
         return BatchTrajectory(times=out[0].times, positions=np.stack([t.positions for t in out]),
                                velocities=np.stack([t.velocities for t in out]))
 

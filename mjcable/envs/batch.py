@@ -16,18 +16,14 @@ environments then step one after another in one call, with no thread switching.
 
 from __future__ import annotations
 
-import concurrent.futures
 import os
-import threading
-import weakref
 from typing import Optional, Sequence
 
 import numpy as np
 from dm_control.rl import control
 
 from mjcable import _validate
-from mjcable.batch import BatchDivergedError
-from mjcable.errors import SimulationDivergedError
+from mjcable.batch import BatchDivergedError, ChunkPool
 
 __all__ = ["BatchEnv", "load_batch"]
 
@@ -60,36 +56,13 @@ class BatchEnv:
         threads = (os.cpu_count() or 1) if threads is None else _validate.integer("threads", threads, low=1)
         self.envs = envs
         self.n = len(envs)
-        self.threads = min(threads, self.n)
-        self._chunks = [range(i * self.n // self.threads, (i + 1) * self.n // self.threads)
-                        for i in range(self.threads)]
-        self._pool = None
-        self._lock = threading.Lock()
+        self._pool = ChunkPool(self.n, threads, "mjcable-env")
+        self.threads = self._pool.threads
 
     def _map(self, work) -> list:
         """``work(i)`` for every environment (each thread its chunk, in order), all of them even if one raises; then
         :class:`mjcable.batch.BatchDivergedError` naming the environments that diverged, or the first other error."""
-        out, errors, other = [None] * self.n, {}, []
-
-        def chunk(indices):
-            for i in indices:
-                try:
-                    out[i] = work(i)
-                except SimulationDivergedError as exc:
-                    errors[i] = exc
-                except Exception as exc:  # noqa: BLE001 - re-raised below, after every environment has run
-                    other.append(exc)
-
-        if self.threads == 1:
-            chunk(range(self.n))
-        else:
-            with self._lock:
-                if self._pool is None:
-                    self._pool = concurrent.futures.ThreadPoolExecutor(self.threads, thread_name_prefix="mjcable-env")
-                    self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=False)
-            list(self._pool.map(chunk, self._chunks))
-        if other:
-            raise other[0]
+        out, errors = self._pool.run(work)
         if errors:
             raise BatchDivergedError(errors, self.n)
         return out
@@ -132,10 +105,7 @@ class BatchEnv:
 
     def close(self) -> None:
         """Stop the worker threads (a later step starts them again) and close the environments."""
-        with self._lock:
-            if self._pool is not None:
-                self._finalizer()
-                self._pool = None
+        self._pool.close()
         for e in self.envs:
             e.close()
 
