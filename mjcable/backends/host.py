@@ -119,7 +119,6 @@ class Host:
                         if scene.pins[k].clamp]
         self._saved = np.zeros(mujoco.mj_stateSize(m, _STATE))
         self._jacp = np.zeros((3, m.nv))
-        self._force = np.zeros((len(pins), 3))
         self.contact_wrench = np.zeros((m.nbody, 6))
         self.impulse = np.zeros((0, 6))
         if obstacles is not None and self.two_way_contacts:
@@ -199,7 +198,7 @@ class Host:
                 # the kernel counted −m g for a moving pin (its particle was free): its step sum takes −f instead
                 held = self.pins[moving]
                 S.pin_sum[held, kernels.PS_F:kernels.PS_F + 3] += -f[moving] - S.pin_force[held]
-                S.pin_force[self.pins[moving]] = -f[moving]
+                S.pin_force[held] = -f[moving]
                 applied = np.zeros((len(self.pins), 6))
                 applied[:, :3] = f
                 applied[:, 3:] = np.cross(arm, f)

@@ -125,8 +125,7 @@ class ObstacleContacts:
         if margin != self._margin:
             m.pair_margin[self.pairs] = margin
             self._margin = margin
-        if len(self._moving):
-            self._refresh_shapes(self._moving)
+        self.refresh_moving()
         mujoco.mj_collision(m, d)
         ncon = d.ncon
         if ncon > len(self._seg):
