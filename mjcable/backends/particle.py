@@ -20,7 +20,7 @@ import numpy as np
 from mjcable.backends.host import Host
 from mjcable.mjcf import proxy, world
 from mjcable.scene import Scene
-from mjcable.solvers import kernels, query_kernels
+from mjcable.solvers import capi, kernels, query_kernels
 from mjcable.solvers.contacts import ObstacleContacts
 from mjcable.solvers.settings import ParticleSettings
 from mjcable.solvers.state import empty_contacts, new_chain
@@ -29,6 +29,7 @@ from mjcable.solvers.user_constraints import iteration_factor
 __all__ = ["ParticleBackend", "proxy_builder"]
 _SELF_CONTACT_CAPACITY = 8  # initial self-contact buffer per segment (grown on demand)
 _NON_FINITE = "non-finite particle state (NaN or inf) in the particle solver"
+_NO_BUFFERS = (np.zeros(0, dtype=np.int64), np.zeros((0, 7)), np.zeros(0))  # obstacle contacts of a scene with none
 
 
 def proxy_builder(scene: Scene, settings: ParticleSettings, dt: float) -> mujoco.MjSpec:
@@ -63,9 +64,14 @@ class ParticleBackend:
       compiled_steps: class switch: ``False`` leaves :attr:`runs_steps` false, so that the Simulator takes every
         step through :meth:`step` (the Python path that :meth:`run` must equal bit for bit; for tests and
         measurements).
+      compiled_query: class switch: ``False`` makes :meth:`run`'s compiled loop return to Python for every contact
+        query (``mujoco.mj_collision`` from Python) instead of querying through MuJoCo's C API itself
+        (:mod:`mjcable.solvers.capi`); both give the same results bit for bit. The loop queries itself only where
+        the C API's layout checks out (:func:`mjcable.solvers.capi.layout`) and no obstacle moves.
     """
 
     compiled_steps = True
+    compiled_query = True
 
     def __init__(self, scene: Scene, entry, dt: float, settings: ParticleSettings):
         self.settings = s = settings
@@ -109,8 +115,8 @@ class ParticleBackend:
         self._obstacles = ObstacleContacts(scene, m, self.mj_data, self._segment_geoms, ours) if m.npair > ours.start \
             else None
         self._host = Host(scene, m, self.mj_data, self.h, self._obstacles) if scene.world is not None else None
-        self._self_pair = np.zeros((_SELF_CONTACT_CAPACITY * n, 2), dtype=np.int64)
-        self._self_geo = np.zeros((_SELF_CONTACT_CAPACITY * n, 5))
+        self._grow_self_buffers(_SELF_CONTACT_CAPACITY * n)
+        self._loop_query = self._query_arguments()
         self._gravity = float(np.linalg.norm(self.mj_model.opt.gravity))  # m/s²
         self._fall = 0.5 * self._gravity * dt**2  # m: what gravity adds to one step's travel
         # run()'s buffers: the step driver's limits (kernels.LIM), positions before a step, mj_data.time
@@ -123,6 +129,40 @@ class ParticleBackend:
         self._no_path = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
         self.timing = {"query": 0.0, "solve": 0.0, "sync": 0.0}
         self.reset()
+
+    def _grow_self_buffers(self, capacity: int) -> None:
+        self._self_pair = np.zeros((capacity, 2), dtype=np.int64)
+        self._self_geo = np.zeros((capacity, 5))
+        self._self_lam = np.zeros((capacity, 2))
+
+    def _query_arguments(self) -> Optional[tuple]:
+        """What :func:`kernels.run_steps_flat` needs to query contacts itself, but its buffers (``capi``, the
+        ``mjData`` views, pose and margin views, geom maps; :meth:`run` adds the buffers), or ``None`` where it
+        cannot: MuJoCo's C API unavailable (:func:`capi.layout`) or an obstacle that moves."""
+        o, m = self._obstacles, self.mj_model
+        if o is None:  # self contacts at most: no MuJoCo call
+            return self._inert_query_arguments()
+        lay = capi.layout()
+        if lay is None or o.moving:
+            return None
+        arg = np.zeros(kernels.N_CAPI, dtype=np.int64)
+        views = capi.data_views(self.mj_data, lay)
+        self._views = views  # the views borrow mj_data's memory
+        C = kernels.CAPI
+        arg[[C["kinematics"], C["collision"], C["model"], C["data"], C["ncon"], C["contact"], C["arena"], C["stride"],
+             C["dist"], C["pos"], C["frame"], C["geom"], C["pair_start"], C["pair_stop"]]] = (
+            lay.kinematics, lay.collision, capi.model_address(m), views.address, lay.ncon // 4, lay.contact // 8,
+            views.arena_address, lay.contact_size, lay.dist, lay.pos, lay.frame, lay.geom, o.pairs.start, o.pairs.stop)
+        return (arg, views.struct_i32, views.struct_i64, views.arena_f64, views.arena_i32, self._pose_pos,
+                self._pose_quat, m.pair_margin, o.segment_of_geom, o.shape_of_geom, o.friction)
+
+    def _inert_query_arguments(self) -> tuple:
+        """:meth:`_query_arguments` for a loop that never calls MuJoCo (typed alike, so that one compiled loop
+        serves all)."""
+        nothing = np.zeros(0, dtype=np.int64)
+        return (np.zeros(kernels.N_CAPI, dtype=np.int64), np.zeros(0, dtype=np.int32), nothing, np.zeros(0),
+                np.zeros(0, dtype=np.int32), self._pose_pos, self._pose_quat, self.mj_model.pair_margin, nothing,
+                nothing, np.zeros((0, 3)))
 
     def _start_pose(self) -> None:
         """MuJoCo's data at the start: the model's start keyframe (a user world's start) or its default pose."""
@@ -217,6 +257,11 @@ class ParticleBackend:
         pins, targets = self._no_path if path is None else path
         done = stored = 0
         reason = previous = None
+        query = self._loop_query
+        if query is None:  # the loop returns for every query: its query arguments are never read
+            query = self._inert_query_arguments()
+        query[0][kernels.CAPI["enabled"]] = self.compiled_query and self._loop_query is not None
+        counts = np.zeros(3, dtype=np.int64)
         while done < count:
             t0 = time.perf_counter()
             # (the loop moves the grippers itself; the query does not need them: with no user world, which runs_steps
@@ -224,16 +269,26 @@ class ParticleBackend:
             self._find_contacts()
             t1 = time.perf_counter()
             chunk = rows[stored:] - done if len(rows) > stored else rows[:0]
+            buffers = self._obstacles.buffers if self._obstacles is not None else _NO_BUFFERS
+            queries = counts[kernels.COUNT_QUERIES]
             k, finite, released, stopped, recorded = kernels.run_steps_flat(
                 *S, *self.contacts, s.substeps, count - done, solo, lim, *self._bounds, self._prev, chunk,
-                out_x[stored:], out_v[stored:], clock, targets[done:], pins, until_release)
+                out_x[stored:], out_v[stored:], clock, targets[done:], pins, until_release, *query, *buffers,
+                self._self_pair, self._self_geo, self._self_lam, counts)
             self._posed = False
             self.timing["query"] += t1 - t0
             self.timing["solve"] += time.perf_counter() - t1
             done += k
             stored += recorded
-            if k > 1:  # the loop's later steps had no contacts
-                self.last_contact_count = 0
+            if counts[kernels.COUNT_QUERIES] > queries:  # the loop set the pairs' margins
+                self._obstacles.forget_margin()
+            if k > 1:  # the loop's later steps: their contacts (queried in the loop) or none
+                n_con, n_self = int(counts[kernels.COUNT_CONTACTS]), int(counts[kernels.COUNT_SELF])
+                self.last_contact_count, self.last_self_contact_count = n_con, n_self
+                seg, geo, lam = buffers
+                self.contacts = self.contacts._replace(
+                    seg=seg[:n_con], geo=geo[:n_con], lam=lam[:n_con], pair=self._self_pair[:n_self],
+                    sgeo=self._self_geo[:n_self], slam=self._self_lam[:n_self])
             if released:
                 self.released.update(int(pin) for pin in np.flatnonzero(~S.pin_active))
             if stopped:
@@ -242,6 +297,7 @@ class ParticleBackend:
                 break
             if released and until_release:
                 break
+        self.queries += int(counts[kernels.COUNT_QUERIES])
         if done and len(targets):  # the grippers' mocap bodies where the loop sent them (pin_to holds it)
             self.mj_data.mocap_pos[self._pin_mocap[pins]] = S.pin_to[pins]
         t2 = time.perf_counter()
@@ -270,9 +326,7 @@ class ParticleBackend:
             reach = 2.0 * self.scene.cable.radius + margin
             count = query_kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
             while count < 0:
-                cap = 2 * self._self_pair.shape[0]
-                self._self_pair = np.zeros((cap, 2), dtype=np.int64)
-                self._self_geo = np.zeros((cap, 5))
+                self._grow_self_buffers(2 * self._self_pair.shape[0])
                 count = query_kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
             contacts = contacts._replace(pair=self._self_pair[:count], sgeo=self._self_geo[:count],
                                          slam=np.zeros((count, 2)))

@@ -85,6 +85,29 @@ class ObstacleContacts:
         self._seg = np.zeros(0, dtype=np.int64)
         self._geo = np.zeros((0, 7))
         self._lam = np.zeros(0)
+        self.reserve(4 * len(segment_geoms))  # a cable lying on a face: about one contact per particle
+
+    @property
+    def moving(self) -> bool:
+        """Whether any obstacle moves (its shape is refreshed from ``mj_data`` by every query)."""
+        return len(self._moving) > 0
+
+    @property
+    def buffers(self) -> tuple:
+        """The query's output buffers (segment (cap,), geometry (cap, 7), multipliers (cap,)), for a compiled loop
+        that fills them itself (:func:`mjcable.solvers.kernels.run_steps_flat`); :meth:`reserve` replaces them."""
+        return self._seg, self._geo, self._lam
+
+    def reserve(self, capacity: int) -> None:
+        """Grow the output buffers to hold at least ``capacity`` contacts (to twice that, when they must grow)."""
+        if capacity > len(self._seg):
+            self._seg = np.zeros(2 * capacity, dtype=np.int64)
+            self._geo = np.zeros((2 * capacity, 7))
+            self._lam = np.zeros(2 * capacity)
+
+    def forget_margin(self) -> None:
+        """Write the pairs' margin at the next :meth:`query` (a compiled loop has set them behind this object)."""
+        self._margin = None
 
     def disable(self) -> None:
         """Switch the cable's pairs off (an impossible margin) so that a host ``mj_step`` never sees the proxy; the
@@ -128,10 +151,7 @@ class ObstacleContacts:
         self.refresh_moving()
         mujoco.mj_collision(m, d)
         ncon = d.ncon
-        if ncon > len(self._seg):
-            self._seg = np.zeros(2 * ncon, dtype=np.int64)
-            self._geo = np.zeros((2 * ncon, 7))
-            self._lam = np.zeros(2 * ncon)
+        self.reserve(ncon)
         count = 0
         if ncon:
             con = d.contact

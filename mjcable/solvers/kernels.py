@@ -52,6 +52,7 @@ from mjcable.solvers.contact_kernels import (
     collect_impulses, contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
     update_anchors,  # noqa: F401
 )
+from mjcable.solvers.query_kernels import find_self_contacts, query_obstacles
 from mjcable.solvers.direct_kernels import (
     _DIRECT_CONTRACTION, _DIRECT_MAX_SOLVES, _DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,  # noqa: F401
     _direct_apply, _direct_linearise, _direct_relinearise, _direct_within, _distance_rows_within,  # noqa: F401
@@ -65,7 +66,7 @@ from mjcable.solvers.kernels_layout import (
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, FP, IP, LIM, N_FP, N_IP, ORDER_DIRECT,  # noqa: F401
     ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PHASE_ALL, PHASE_BEGIN, PHASE_END, PHASE_ITERATE, ROW_CLAMP,  # noqa: F401
     ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH, Chain, Contacts, IM_F, IM_M, N_FR, N_SH,  # noqa: F401
-    SH_POS, SH_ROT, SH_SIZE, SH_TYPE,  # noqa: F401
+    SH_POS, SH_ROT, SH_SIZE, SH_TYPE, CAPI, CAPI_ENABLED, COUNT_CONTACTS, COUNT_QUERIES, COUNT_SELF, N_CAPI,  # noqa: F401
 )
 
 __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_flat", "step_margin", "begin_substep",
@@ -345,9 +346,12 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
                    clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
                    row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair,
                    sgeo, slam, shapes, impulse, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev,
-                   rows, out_x, out_v, clock, path, path_pins, until_release):
+                   rows, out_x, out_v, clock, path, path_pins, until_release, capi, struct_i32, struct_i64, arena_f64,
+                   arena_i32, pose_pos, pose_quat, pair_margin, segment_of_geom, shape_of_geom, geom_friction, seg_buf,
+                   geo_buf, lam_buf, pair_buf, sgeo_buf, slam_buf, counts):
     """Up to ``n_steps`` whole steps of ``n_sub`` substeps (:func:`run_substeps`) in one call (``*chain,
-    *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones none. After each
+    *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones query their own
+    (below) or have none. After each
     step, as the Python step: the pins' start moves to their target (a gripper move spreads over one step),
     ``clock[0] += lim[dt]`` (``mj_data.time``), x and v go to ``out_x[r]``, ``out_v[r]`` (R, N, 3) when the
     step's number in this call is ``rows[r]`` (ascending). Grippers follow ``path`` (P, G, 3) m: before step ``k``
@@ -357,10 +361,20 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
 
     * after a step whose state is non-finite or runs away (:func:`_step_checks`; ``prev`` (N, 3) holds the
       positions before it), so that the caller raises naming that step;
-    * before a step whose reach (:func:`step_margin` + ``lim[radius]``) touches an obstacle (``box_lo``, ``box_hi``,
-      ``plane_n``, ``plane_p``: empty for none), or any step after the first if ``solo`` (self-collision): the
-      caller queries its contacts;
-    * after a step in which a socket let go, if ``until_release``."""
+    * before a step that needs a contact query, if ``capi[CAPI_ENABLED]`` is 0 or the query overflows its buffers:
+      the caller queries that step's contacts in Python (and grows the buffers);
+    * after a step in which a socket let go, if ``until_release``.
+
+    A step after the first needs a query when its reach (:func:`step_margin` + ``lim[radius]``) touches an obstacle
+    (``box_lo``, ``box_hi``, ``plane_n``, ``plane_p``: empty for none), and every step does if ``solo``
+    (self-collision). With ``capi[CAPI_ENABLED]`` the loop queries itself, as the Python step: the obstacles through
+    MuJoCo's C API (:func:`~mjcable.solvers.query_kernels.query_obstacles`: ``capi``, the ``mjData`` views
+    ``struct_i32``, ``struct_i64``, ``arena_f64``, ``arena_i32``, the proxy's ``mocap_pos``/``mocap_quat`` views
+    ``pose_pos``, ``pose_quat`` and ``pair_margin``, the maps ``segment_of_geom``, ``shape_of_geom`` and
+    ``geom_friction``) into ``seg_buf``, ``geo_buf``, ``lam_buf`` (capacity), and self contacts
+    (:func:`~mjcable.solvers.query_kernels.find_self_contacts`) into ``pair_buf``, ``sgeo_buf``, ``slam_buf``.
+    ``counts`` gets the last step's obstacle and self contact numbers (``COUNT_CONTACTS``, ``COUNT_SELF``, when the
+    loop queried them) and the number of obstacle queries it ran (``COUNT_QUERIES``, added)."""
     S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
               clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
               row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
@@ -368,12 +382,32 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
     none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0], shapes, impulse)
     obstacles = box_lo.shape[0] + plane_n.shape[0] > 0
     released, stored = 0, 0
+    C = given
     for k in range(n_steps):
-        if k > 0 and (solo or (obstacles and touches_obstacles(
-                x, step_margin(v, lim[_L_MARGIN], lim[_L_DT], lim[_L_FALL]) + lim[_L_RADIUS], box_lo, box_hi,
-                plane_n, plane_p))):
-            return k, True, released, False, stored
-        C = given if k == 0 else none
+        if k > 0:
+            margin = step_margin(v, lim[_L_MARGIN], lim[_L_DT], lim[_L_FALL])
+            near = obstacles and touches_obstacles(x, margin + lim[_L_RADIUS], box_lo, box_hi, plane_n, plane_p)
+            if not (near or solo):
+                C = none
+                counts[COUNT_CONTACTS], counts[COUNT_SELF] = 0, 0
+            elif capi[CAPI_ENABLED] == 0:
+                return k, True, released, False, stored
+            else:  # the query of ParticleBackend._find_contacts, in the loop
+                n_con = n_self = 0
+                if near:
+                    n_con = query_obstacles(x, margin, capi, struct_i32, struct_i64, arena_f64, arena_i32, pose_pos,
+                                            pose_quat, pair_margin, segment_of_geom, shape_of_geom, geom_friction,
+                                            lim[_L_RADIUS], seg_buf, geo_buf)
+                    if n_con < 0:
+                        return k, True, released, False, stored
+                    counts[COUNT_QUERIES] += 1
+                if solo:
+                    n_self = find_self_contacts(x, 2.0 * lim[_L_RADIUS] + margin, pair_buf, sgeo_buf)
+                    if n_self < 0:
+                        return k, True, released, False, stored
+                C = Contacts(seg_buf[:n_con], geo_buf[:n_con], lam_buf[:n_con], pair_buf[:n_self], sgeo_buf[:n_self],
+                             slam_buf[:n_self], shapes, impulse)
+                counts[COUNT_CONTACTS], counts[COUNT_SELF] = n_con, n_self
         if k < path.shape[0]:
             for g in range(path_pins.shape[0]):
                 q = path_pins[g]

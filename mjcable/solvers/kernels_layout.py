@@ -37,6 +37,18 @@ SH_TYPE, SH_SIZE, SH_POS, SH_ROT, N_SH = 0, 1, 4, 7, 16
 # row of its last contact (kept across substeps).
 FR_FN, FR_MU, FR_SLID, FR_NX, FR_FT, FR_GN, FR_OB, N_FR = 0, 1, 2, 3, 6, 9, 12, 13
 PHASE_ALL, PHASE_BEGIN, PHASE_ITERATE, PHASE_END = 0, 1, 2, 3
+# Entries of run_steps_flat's ``capi`` (int64): whether the loop queries contacts itself (0: it returns to Python
+# for every query), the addresses of mj_kinematics, mj_collision, the proxy's mjModel and mjData, the index of
+# mjData.ncon in its int32 words and of mjData.contact in its int64 words, the arena's address, sizeof(mjContact) and
+# the byte offsets of its dist, pos, frame and geom (mjcable.solvers.capi.Layout), the cable's pairs' first and
+# past-the-last rows of pair_margin.
+CAPI = dict(enabled=0, kinematics=1, collision=2, model=3, data=4, ncon=5, contact=6, arena=7, stride=8, dist=9, pos=10,
+            frame=11, geom=12, pair_start=13, pair_stop=14)
+(CAPI_ENABLED, CAPI_KINEMATICS, CAPI_COLLISION, CAPI_MODEL, CAPI_DATA, CAPI_NCON, CAPI_CONTACT, CAPI_ARENA,
+ CAPI_STRIDE, CAPI_DIST, CAPI_POS, CAPI_FRAME, CAPI_GEOM, CAPI_PAIR_START, CAPI_PAIR_STOP) = range(15)
+N_CAPI = len(CAPI)
+# Entries of run_steps_flat's ``counts`` (int64): the last step's obstacle and self contacts, contact queries run.
+COUNT_CONTACTS, COUNT_SELF, COUNT_QUERIES = 0, 1, 2
 # Columns of Chain.pin_sum (P, 4): the sum of a pin's substep forces over the current step (N) and how many substeps
 # it holds; the step's mean force is their ratio (kernels.end_substep).
 PS_F, PS_N, N_PS = 0, 3, 4

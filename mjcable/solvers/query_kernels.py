@@ -1,9 +1,9 @@
-"""Python-called kernels of the particle solvers: contact queries and the proxy's poses, ``@njit(cache=True)``.
-
-These run once per step from Python (:mod:`mjcable.backends.particle`, :mod:`mjcable.solvers.contacts`), never
-from the substep driver, so they live apart from :mod:`mjcable.solvers.kernels`. Their numba cache is stamped
-with all kernel files (:mod:`mjcable.solvers._kernel_cache`). The bounding-box test that skips the query
-(``touches_obstacles``) is called by the step driver too, so it lives in :mod:`mjcable.solvers.kernels`.
+"""Contact queries and the proxy's poses, ``@njit(cache=True)``: called from Python once per step
+(:mod:`mjcable.backends.particle`, :mod:`mjcable.solvers.contacts`) and, inlined, from the whole-step driver
+(:func:`mjcable.solvers.kernels.run_steps_flat`), which queries between steps through MuJoCo's C API
+(:func:`query_obstacles`, :mod:`mjcable.solvers.capi`). Their numba cache is stamped with all kernel files
+(:mod:`mjcable.solvers._kernel_cache`). The bounding-box test that skips the query (``touches_obstacles``) lives in
+:mod:`mjcable.solvers.kernels`.
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -14,10 +14,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
+from mjcable.solvers.kernels_layout import (CAPI_ARENA, CAPI_COLLISION, CAPI_CONTACT, CAPI_DATA, CAPI_DIST,
+                                            CAPI_FRAME, CAPI_GEOM, CAPI_KINEMATICS, CAPI_MODEL, CAPI_NCON,
+                                            CAPI_PAIR_START, CAPI_PAIR_STOP, CAPI_POS, CAPI_STRIDE)
 
-__all__ = ["find_self_contacts", "contacts_from_mujoco", "proxy_poses", "segment_closest"]
+__all__ = ["find_self_contacts", "contacts_from_mujoco", "query_obstacles", "proxy_poses", "segment_closest"]
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction
 _PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
@@ -95,6 +101,47 @@ def find_self_contacts(x, reach, pair, sgeo):
     return count
 
 
+@_inline
+def _take_contact(g0, g1, dist, pos_x, pos_y, pos_z, f0, f1, f2, segment_of_geom, shape_of_geom, geom_friction, x,
+                  radius, seg, geo, at_particle, count):
+    """One MuJoCo contact (geoms ``g0``, ``g1``, ``dist``, ``pos``, ``frame[:3]`` = f) into row ``count`` of ``seg``,
+    ``geo`` (see :func:`contacts_from_mujoco`); returns the new count (unchanged for a contact that is not between
+    a capsule and an obstacle, or that repeats one already acting at the same particle)."""
+    s0 = segment_of_geom[g0]
+    s1 = segment_of_geom[g1]
+    if (s0 >= 0) == (s1 >= 0):
+        return count
+    if s0 >= 0:
+        i, other, sign = s0, g1, -1.0
+    else:
+        i, other, sign = s1, g0, 1.0
+    nx, ny, nz = sign * f0, sign * f1, sign * f2
+    half = 0.5 * dist
+    qx, qy, qz = pos_x - half * nx, pos_y - half * ny, pos_z - half * nz
+    reach = half + radius
+    px, py, pz = pos_x + reach * nx, pos_y + reach * ny, pos_z + reach * nz
+    ex, ey, ez = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+    e2 = ex * ex + ey * ey + ez * ez
+    frac = 0.0
+    if e2 > 0.0:
+        frac = ((px - x[i, 0]) * ex + (py - x[i, 1]) * ey + (pz - x[i, 2]) * ez) / e2
+    frac = 0.0 if frac < _END_FRACTION else (1.0 if frac > 1.0 - _END_FRACTION else frac)
+    if frac == 0.0 or frac == 1.0:  # at a particle: the neighbouring capsule's end contact may be the same
+        p = i if frac == 0.0 else i + 1
+        q = at_particle[p]
+        if q >= 0 and geo[q, 6] == shape_of_geom[other] and (
+                geo[q, 1] * nx + geo[q, 2] * ny + geo[q, 3] * nz > _SAME_NORMAL):
+            return count
+        at_particle[p] = count
+    seg[count] = i
+    geo[count, 0] = frac
+    geo[count, 1], geo[count, 2], geo[count, 3] = nx, ny, nz
+    geo[count, 4] = nx * qx + ny * qy + nz * qz + radius
+    geo[count, 5] = geom_friction[other, 0]
+    geo[count, 6] = shape_of_geom[other]
+    return count + 1
+
+
 @_jit
 def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, shape_of_geom, geom_friction, x, radius, seg, geo):
     """Turn MuJoCo's contacts (``geom`` (c, 2), ``dist`` (c,), ``pos`` (c, 3), ``frame`` (c, 9)) between proxy
@@ -111,39 +158,59 @@ def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, shape_of_geom,
     count = 0
     at_particle = np.full(x.shape[0], -1, dtype=np.int64)  # the contact already acting at a particle (s = 0 or 1)
     for c in range(dist.shape[0]):
-        s0 = segment_of_geom[geom[c, 0]]
-        s1 = segment_of_geom[geom[c, 1]]
-        if (s0 >= 0) == (s1 >= 0):
-            continue
-        if s0 >= 0:
-            i, other, sign = s0, geom[c, 1], -1.0
-        else:
-            i, other, sign = s1, geom[c, 0], 1.0
-        nx, ny, nz = sign * frame[c, 0], sign * frame[c, 1], sign * frame[c, 2]
-        half = 0.5 * dist[c]
-        qx, qy, qz = pos[c, 0] - half * nx, pos[c, 1] - half * ny, pos[c, 2] - half * nz
-        reach = half + radius
-        px, py, pz = pos[c, 0] + reach * nx, pos[c, 1] + reach * ny, pos[c, 2] + reach * nz
-        ex, ey, ez = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
-        e2 = ex * ex + ey * ey + ez * ez
-        frac = 0.0
-        if e2 > 0.0:
-            frac = ((px - x[i, 0]) * ex + (py - x[i, 1]) * ey + (pz - x[i, 2]) * ez) / e2
-        frac = 0.0 if frac < _END_FRACTION else (1.0 if frac > 1.0 - _END_FRACTION else frac)
-        if frac == 0.0 or frac == 1.0:  # at a particle: the neighbouring capsule's end contact may be the same
-            p = i if frac == 0.0 else i + 1
-            q = at_particle[p]
-            if q >= 0 and geo[q, 6] == shape_of_geom[other] and (
-                    geo[q, 1] * nx + geo[q, 2] * ny + geo[q, 3] * nz > _SAME_NORMAL):
-                continue
-            at_particle[p] = count
-        seg[count] = i
-        geo[count, 0] = frac
-        geo[count, 1], geo[count, 2], geo[count, 3] = nx, ny, nz
-        geo[count, 4] = nx * qx + ny * qy + nz * qz + radius
-        geo[count, 5] = geom_friction[other, 0]
-        geo[count, 6] = shape_of_geom[other]
-        count += 1
+        count = _take_contact(geom[c, 0], geom[c, 1], dist[c], pos[c, 0], pos[c, 1], pos[c, 2], frame[c, 0],
+                              frame[c, 1], frame[c, 2], segment_of_geom, shape_of_geom, geom_friction, x, radius, seg,
+                              geo, at_particle, count)
+    return count
+
+
+@intrinsic
+def _call_model_data(typingctx, fn, model, data):
+    """Call the C function at address ``fn`` as ``void fn(const mjModel* model, mjData* data)`` (addresses as
+    integers: :mod:`mjcable.solvers.capi`); nothing of it is baked into the compiled code, so it caches."""
+    if not all(isinstance(a, types.Integer) for a in (fn, model, data)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        pointer = ir.IntType(8).as_pointer()
+        function = ir.FunctionType(ir.VoidType(), [pointer, pointer])
+        address, m, d = (context.cast(builder, a, t, types.intp) for a, t in zip(args, signature.args))
+        builder.call(builder.inttoptr(address, function.as_pointer()),
+                     [builder.inttoptr(m, pointer), builder.inttoptr(d, pointer)])
+        return context.get_dummy_value()
+
+    return types.void(fn, model, data), codegen
+
+
+@_inline
+def query_obstacles(x, margin, capi, struct_i32, struct_i64, arena_f64, arena_i32, pose_pos, pose_quat, pair_margin,
+                    segment_of_geom, shape_of_geom, geom_friction, radius, seg, geo):
+    """What :meth:`mjcable.solvers.contacts.ObstacleContacts.query` does, through MuJoCo's C API: pose the proxy
+    capsules from ``x`` (:func:`proxy_poses` into the ``mocap_pos``, ``mocap_quat`` views ``pose_pos``,
+    ``pose_quat``), ``mj_kinematics``, the cable's pair margins (``pair_margin`` rows ``capi[CAPI_PAIR_START]`` to
+    ``capi[CAPI_PAIR_STOP]``) set to ``margin`` (m), ``mj_collision``, then MuJoCo's contacts (``ncon`` and the
+    contact array, read from the ``mjData`` struct and arena views at the offsets in ``capi``:
+    :class:`mjcable.solvers.capi.Layout`) into ``seg``, ``geo`` as :func:`contacts_from_mujoco`. Returns their
+    number, or −1 when MuJoCo found more contacts than ``seg`` holds (the caller grows it and queries again)."""
+    proxy_poses(x, pose_pos, pose_quat)
+    _call_model_data(capi[CAPI_KINEMATICS], capi[CAPI_MODEL], capi[CAPI_DATA])
+    for p in range(capi[CAPI_PAIR_START], capi[CAPI_PAIR_STOP]):
+        pair_margin[p] = margin
+    _call_model_data(capi[CAPI_COLLISION], capi[CAPI_MODEL], capi[CAPI_DATA])
+    ncon = struct_i32[capi[CAPI_NCON]]
+    if ncon > seg.shape[0]:
+        return -1
+    base = struct_i64[capi[CAPI_CONTACT]] - capi[CAPI_ARENA]  # bytes from the arena's start to contact[0]
+    stride = capi[CAPI_STRIDE]
+    count = 0
+    at_particle = np.full(x.shape[0], -1, dtype=np.int64)
+    for c in range(ncon):
+        row = base + c * stride
+        d, p, f, g = ((row + capi[CAPI_DIST]) // 8, (row + capi[CAPI_POS]) // 8, (row + capi[CAPI_FRAME]) // 8,
+                      (row + capi[CAPI_GEOM]) // 4)
+        count = _take_contact(arena_i32[g], arena_i32[g + 1], arena_f64[d], arena_f64[p], arena_f64[p + 1],
+                              arena_f64[p + 2], arena_f64[f], arena_f64[f + 1], arena_f64[f + 2], segment_of_geom,
+                              shape_of_geom, geom_friction, x, radius, seg, geo, at_particle, count)
     return count
 
 

@@ -1,0 +1,118 @@
+"""MuJoCo's C API from the compiled step loop (:mod:`mjcable.solvers.capi`): the struct layout read from the shipped
+declarations agrees with the Python bindings' own views, and the loop that queries contacts itself gives the same
+simulation bit for bit as the loop that returns to Python for every ``mujoco.mj_collision``."""
+
+import mujoco
+import numpy as np
+import pytest
+
+import mjcable
+from mjcable.backends.particle import ParticleBackend
+from mjcable.solvers import capi
+from mjcable.solvers.contacts import ObstacleContacts
+
+_PILE = """<mujoco><worldbody><geom type="plane" size="2 2 0.1"/>
+  <body pos="0 0 0.09"><freejoint/><geom type="box" size="0.1 0.1 0.1"/></body>
+  <body pos="0.5 0 0.05"><freejoint/><geom type="capsule" fromto="0 0 0 0.1 0.05 0" size="0.06"/></body>
+  <body pos="-0.5 0 0.04"><freejoint/><geom type="sphere" size="0.05"/></body>
+</worldbody></mujoco>"""
+
+
+def test_the_layout_reads_what_the_bindings_read():
+    """Every field the loop reads, for every contact of a pile of bodies sunk into a floor, through the layout and
+    the raw views, equals the bindings' ``MjData.contact`` and ``ncon``."""
+    lay = capi.layout()
+    assert lay is not None, capi.unavailable()
+    assert capi.unavailable() is None
+    m = mujoco.MjModel.from_xml_string(_PILE)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    views = capi.data_views(d)
+    ncon = int(views.struct_i32[lay.ncon // 4])
+    assert ncon == d.ncon >= 6
+    base = int(views.struct_i64[lay.contact // 8]) - views.arena_address
+    rows = base + lay.contact_size * np.arange(ncon)
+    f64 = views.arena_f64
+    np.testing.assert_array_equal(f64[(rows + lay.dist) // 8], d.contact.dist)
+    for k in range(3):
+        np.testing.assert_array_equal(f64[(rows + lay.pos) // 8 + k], d.contact.pos[:, k])
+    for k in range(9):
+        np.testing.assert_array_equal(f64[(rows + lay.frame) // 8 + k], d.contact.frame[:, k])
+    for k in range(2):
+        np.testing.assert_array_equal(views.arena_i32[(rows + lay.geom) // 4 + k], d.contact.geom[:, k])
+
+
+def _state(sim) -> dict:
+    d = sim.mj_data
+    return dict(x=sim.positions, v=sim.velocities, f=sim.pin_forces, geoms=d.geom_xpos.copy(),
+                time=np.array([d.time, sim.time]),
+                counts=np.array([sim.diagnostics[k] for k in ("contacts", "self_contacts", "queries")]))
+
+
+def _run(scene, model, compiled_query, monkeypatch, seconds=0.4, **settings) -> tuple:
+    """The state after ``seconds`` of steps in one call, and how many contact queries Python ran for it."""
+    monkeypatch.setattr(ParticleBackend, "compiled_query", compiled_query)
+    calls = {"n": 0}
+    real = ObstacleContacts.query
+
+    def counted(self, *args):
+        calls["n"] += 1
+        return real(self, *args)
+
+    monkeypatch.setattr(ObstacleContacts, "query", counted)
+    sim = mjcable.Simulator(scene, model, **settings)
+    sim.step(seconds)
+    out = _state(sim)
+    monkeypatch.undo()
+    return out, calls["n"]
+
+
+@pytest.mark.parametrize("scene_name,model,settings", [
+    ("table", "xpbd", {}),  # falls for 0.2 s, lands: about 100 queried steps
+    ("drape", "pbd", {}),  # over a cylinder
+    ("socket", "jakobsen", {}),  # a gripper, a socket, wall and floor
+    ("drape", "xpbd", {"self_collision": True}),  # every step queries its self contacts too
+])
+def test_the_loop_queries_contacts_itself_bit_for_bit(scene_name, model, settings, monkeypatch):
+    scene = mjcable.scenes.get(scene_name, n_segments=16)
+    fast, python_queries_fast = _run(scene, model, True, monkeypatch, **settings)
+    slow, python_queries_slow = _run(scene, model, False, monkeypatch, **settings)
+    assert fast["counts"][2] > 20  # the cable met the obstacles for many steps
+    assert python_queries_slow == slow["counts"][2]  # every query went through Python ...
+    assert python_queries_fast <= 1  # ... or, but the call's first step, through the C API in the loop
+    for key in slow:
+        np.testing.assert_array_equal(fast[key], slow[key], err_msg=f"{key} differs between the two queries")
+
+
+def test_a_query_that_overflows_the_loop_buffers_returns_to_python(monkeypatch):
+    """With room for 2 contacts, the loop hands the query back to Python, which grows the buffers; the simulation is
+    the same as with ample buffers."""
+    scene = mjcable.scenes.get("table", n_segments=16)
+    ample, _ = _run(scene, "xpbd", True, monkeypatch)
+    monkeypatch.setattr(ObstacleContacts, "reserve", _reserve_at_most_2)
+    tight, python_queries = _run(scene, "xpbd", True, monkeypatch)
+    assert python_queries > 1  # handed back
+    for key in ample:
+        np.testing.assert_array_equal(tight[key], ample[key], err_msg=key)
+
+
+_REAL_RESERVE = ObstacleContacts.reserve
+
+
+def _reserve_at_most_2(self, capacity):
+    """:meth:`ObstacleContacts.reserve` that starts the buffers at 2 contacts (growing as asked afterwards)."""
+    if len(self._seg) == 0:
+        capacity = 1
+    _REAL_RESERVE(self, capacity)
+
+
+def test_without_the_c_api_the_loop_returns_to_python_for_queries(monkeypatch):
+    """Where the layout does not check out the backend falls back to Python's query, with the same results."""
+    scene = mjcable.scenes.get("table", n_segments=16)
+    fast, _ = _run(scene, "xpbd", True, monkeypatch)
+    monkeypatch.setattr(capi, "_cached", lambda: (None, "RuntimeError: test"))
+    assert capi.layout() is None and capi.unavailable() == "RuntimeError: test"
+    fallback, python_queries = _run(scene, "xpbd", True, monkeypatch)
+    assert python_queries == fallback["counts"][2] > 20
+    for key in fast:
+        np.testing.assert_array_equal(fallback[key], fast[key], err_msg=key)
