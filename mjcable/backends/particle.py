@@ -5,8 +5,8 @@ One :meth:`ParticleBackend.step` advances exactly one ``dt``: query contacts (on
 ``substeps`` substeps of ``iterations`` iterations in one numba call, then pose the proxy capsules from the
 particles so that ``mj_data`` renders the cable. :meth:`ParticleBackend.run` takes many steps with the same
 results, bit for bit: in one compiled loop (:func:`~mjcable.solvers.kernels.run_steps_flat`, the Simulator's
-divergence checks included) for as long as no step needs a contact query, with Python only around the queries,
-and the proxy posed once at the end.
+divergence checks included) that queries contacts itself through MuJoCo's C API (:mod:`mjcable.solvers.capi`;
+Python's query where that is unavailable, or an obstacle moves), and the proxy posed once at the end.
 """
 
 from __future__ import annotations
@@ -232,9 +232,10 @@ class ParticleBackend:
         that fails a divergence check; ``mj_data`` is posed once, at the end. With a gripper ``path``, the results
         of :meth:`move_gripper` for the moving grippers before each of those calls.
 
-        Steps that need no contact query run in one compiled loop (:func:`kernels.run_steps_flat`); a query (a
-        step whose reach touches an obstacle's bounding box, or every step with self-collision) returns to Python
-        for ``mj_collision``.
+        The steps run in one compiled loop (:func:`kernels.run_steps_flat`), which also runs their contact queries
+        (a step whose reach touches an obstacle's bounding box, or every step with self-collision) through MuJoCo's
+        C API; without it (:attr:`compiled_query` off, :func:`capi.layout` ``None``, a moving obstacle), or when
+        a query overflows the loop's buffers, the loop returns to Python for that step's ``mj_collision``.
 
         Args:
           count: steps to take (>= 1).
@@ -431,6 +432,7 @@ class ParticleBackend:
 
     def diagnostics(self) -> dict:
         """``contacts`` and ``self_contacts`` found by the last step, ``queries`` (steps that ran MuJoCo's collision
-        query) and cumulative seconds in ``query_s``, ``solve_s`` and ``sync_s``."""
+        query) and cumulative seconds in ``query_s`` (the queries run from Python), ``solve_s`` (the solver, and the
+        queries the compiled loop runs itself) and ``sync_s``."""
         return {"contacts": self.last_contact_count, "self_contacts": self.last_self_contact_count,
                 "queries": self.queries, **{f"{k}_s": v for k, v in self.timing.items()}}

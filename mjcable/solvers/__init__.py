@@ -30,16 +30,18 @@ Module map: :mod:`~mjcable.solvers.settings` (the settings dataclasses), :mod:`~
 :mod:`~mjcable.solvers.contact_kernels`, obstacle shapes, contacts and Coulomb friction with anchors,
 :mod:`~mjcable.solvers.direct_kernels`, the direct order, and :mod:`~mjcable.solvers.kernels_layout`, indices and
 named tuples; their numba cache is stamped with all kernel files, :mod:`~mjcable.solvers._kernel_cache`),
-:mod:`~mjcable.solvers.query_kernels` (contact queries and proxy poses, called from Python),
+:mod:`~mjcable.solvers.query_kernels` (contact queries and proxy poses, from Python and from the step loop),
+:mod:`~mjcable.solvers.capi` (MuJoCo's C API for the step loop: entry points and checked struct layout),
 :mod:`~mjcable.solvers.contacts` (``mj_collision`` queries), :mod:`~mjcable.solvers.jakobsen`,
 :mod:`~mjcable.solvers.pbd`, :mod:`~mjcable.solvers.xpbd` (each model's rules: how the physical cable becomes
 compliances and factors), :mod:`~mjcable.solvers.user_constraints` (PBD's user constraints).
 """
 
-from mjcable.solvers import (contact_kernels, jakobsen, kernels, pbd, query_kernels, settings, state,
+from mjcable.solvers import (capi, contact_kernels, jakobsen, kernels, pbd, query_kernels, settings, state,
                              user_constraints, xpbd)
 from mjcable.solvers.settings import JakobsenSettings, ParticleSettings, PBDSettings, XPBDSettings
 from mjcable.solvers.user_constraints import UserConstraint
 
 __all__ = ["ParticleSettings", "JakobsenSettings", "PBDSettings", "XPBDSettings", "UserConstraint", "jakobsen",
-           "pbd", "xpbd", "kernels", "contact_kernels", "query_kernels", "settings", "state", "user_constraints"]
+           "pbd", "xpbd", "kernels", "contact_kernels", "query_kernels", "capi", "settings", "state",
+           "user_constraints"]
