@@ -271,7 +271,6 @@ class ParticleBackend:
             t1 = time.perf_counter()
             chunk = rows[stored:] - done if len(rows) > stored else rows[:0]
             buffers = self._obstacles.buffers if self._obstacles is not None else _NO_BUFFERS
-            queries = counts[kernels.COUNT_QUERIES]
             k, finite, released, stopped, recorded = kernels.run_steps_flat(
                 *S, *self.contacts, s.substeps, count - done, solo, lim, *self._bounds, self._prev, chunk,
                 out_x[stored:], out_v[stored:], clock, targets[done:], pins, until_release, *query, *buffers,
@@ -281,7 +280,7 @@ class ParticleBackend:
             self.timing["solve"] += time.perf_counter() - t1
             done += k
             stored += recorded
-            if counts[kernels.COUNT_QUERIES] > queries:  # the loop set the pairs' margins
+            if query[0][kernels.CAPI["enabled"]] and self._obstacles is not None:  # the loop may have set the margins
                 self._obstacles.forget_margin()
             if k > 1:  # the loop's later steps: their contacts (queried in the loop) or none
                 n_con, n_self = int(counts[kernels.COUNT_CONTACTS]), int(counts[kernels.COUNT_SELF])
