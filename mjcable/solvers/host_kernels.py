@@ -10,7 +10,8 @@ and after the host's step, b_free its trial position):
    ``mj_solveM`` → w_b = jn · M⁻¹ jnᵀ (:func:`pin_axis_jacobian`, :func:`dot`); the trial step ``mj_getState``,
    ``mj_step``, ``mj_kinematics``, read b_free and turn the clamps' body-frame directions (:func:`turn_clamp`),
    ``mj_setState``; the particle predicted at b_free with inverse mass w_b (0 where w_b ≤ ``RIGID``);
-3. the solver's substep (:func:`mjcable.solvers.kernels.run_substeps`, one whole substep);
+3. the solver's substep (:func:`mjcable.solvers.kernels.run_substeps_flat`, one whole substep: called, not inlined,
+   so that its compiled code, cached, serves here too);
 4. F = (x_p − b_free) / (w_b h h) + m_p g on each moving pin (−pin_force on a rigid one), added with its moment
    (p0 − xipos) × F to ``xfrc_applied``; the contacts' −Σ j / h² on the world's dynamic bodies
    (:func:`mjcable.solvers.contact_kernels.body_wrenches`); ``mj_step``; both taken off ``xfrc_applied`` again;
@@ -44,7 +45,7 @@ from numba.extending import intrinsic
 
 from mjcable.solvers import contact_kernels
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
-from mjcable.solvers.kernels import Chain, Contacts, PHASE_ALL, PS_F, SH_POS, SH_ROT, run_substeps
+from mjcable.solvers.kernels import PHASE_ALL, PS_F, SH_POS, SH_ROT, run_substeps_flat
 from mjcable.solvers.query_kernels import _call_model_data
 
 __all__ = ["host_substeps", "pin_axis_jacobian", "dot", "turn_clamp", "RIGID", "HC", "N_HC", "LK", "N_LK"]
@@ -218,10 +219,6 @@ def host_substeps(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_
     Returns:
       (all positions and velocities finite, sockets released, the first ``bad`` warning that MuJoCo counted, or −1).
     """
-    S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
-              row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
-    C = Contacts(seg, geo, lam, pair, sgeo, slam, shapes, impulse)
     npin = links.shape[0]
     nv = capi[_HC_NV]
     start_from, start_to = pin_from.copy(), pin_to.copy()
@@ -276,7 +273,11 @@ def host_substeps(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_
                 pin_to[i, c] = target[i, c]
         if two_way:
             host_impulse[:] = 0.0
-        ok, got = run_substeps(S, C, 1, PHASE_ALL, 0)
+        ok, got = run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq,
+                                    clamp_pin, clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release,
+                                    pin_force, pin_sum, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, fric,
+                                    anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo, slam, shapes, impulse, 1,
+                                    PHASE_ALL, 0)
         finite = finite and ok
         released += got
         if coupled:
