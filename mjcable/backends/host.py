@@ -60,6 +60,14 @@ them): a weight of mass W lying on a cable on a table takes μ (2 W + m) g to pu
 squeeze the body's explicit contact force alternates between about 0 and 2 W g from substep to substep, and with
 Gauss-Seidel orders (``pbd``, ``jakobsen``, ``xpbd`` with ``order="gauss-seidel"``) the single sweep then keeps
 only about a quarter of the friction (a strict xfail records it).
+
+Compiled substeps. Without a per-substep callback (PBD's user constraints keep the Python loop), ``substeps`` runs all
+its substeps, MuJoCo's calls included, in one compiled call (:func:`mjcable.solvers.host_kernels.host_substeps`,
+through MuJoCo's C API: :func:`mjcable.solvers.capi.host_functions`), with the Python loop's results bit for bit (the
+reductions they share, n and w_b, are the kernels' :func:`~mjcable.solvers.host_kernels.pin_axis_jacobian` and
+:func:`~mjcable.solvers.host_kernels.dot`). The first step after each reset stays in Python, so that a MuJoCo *error*
+of the starting state (``mju_error``, e.g. an arena too small) is a Python exception: inside the compiled call it
+would end the process (see :mod:`mjcable.solvers.host_kernels`). ``Host.compiled = False`` forces the Python loop.
 """
 
 from __future__ import annotations
@@ -71,14 +79,14 @@ import numpy as np
 
 from mjcable.mjcf import world
 from mjcable.scene import Scene
-from mjcable.solvers import contact_kernels, kernels
+from mjcable.solvers import capi, contact_kernels, host_kernels, kernels
 from mjcable.solvers.contacts import ObstacleContacts
 
 __all__ = ["Host"]
 
 _BAD = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL)
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
-_RIGID = 1e-12  # 1/kg: a body point lighter to move than this is held fixed (a body welded to the world)
+_RIGID = host_kernels.RIGID  # 1/kg: a body point lighter to move than this is held fixed (a body welded to the world)
 
 
 class Host:
@@ -100,6 +108,7 @@ class Host:
     """
 
     two_way_contacts = True  # class switch: False leaves the world's bodies without the contacts' reactions (tests)
+    compiled = True  # class switch: False steps in the Python loop even where the compiled substeps can (tests)
 
     def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, h: float,
                  obstacles: Optional[ObstacleContacts] = None):
@@ -114,21 +123,28 @@ class Host:
         self.bodies = np.array([m.body(scene.pins[k].body).id for k in pins], dtype=np.int64)
         self.sites = np.array([m.site(world.anchor_site(k)).id for k in pins], dtype=np.int64)
         clamped = [k for k, pin in enumerate(scene.pins) if pin.clamp]
-        #: (row in the state's clamp arrays, body id, the clamp's two directions in the body's frame (2, 3))
-        self._clamps = [(clamped.index(k), int(self.bodies[j]), None) for j, k in enumerate(pins)
-                        if scene.pins[k].clamp]
+        #: (K, 2) [row in the state's clamp arrays, body id] of the body pins' clamps, and (K, 3, 2) the clamps' two
+        #: directions in their bodies' frames (set by reset)
+        self._clamps = np.array([(clamped.index(k), int(self.bodies[j])) for j, k in enumerate(pins)
+                                 if scene.pins[k].clamp], dtype=np.int64).reshape(-1, 2)
+        self._clamp_local = np.zeros((len(self._clamps), 3, 2))
         self._saved = np.zeros(mujoco.mj_stateSize(m, _STATE))
         self._jacp = np.zeros((3, m.nv))
+        self._jn = np.zeros((1, m.nv))
+        self._solved = np.zeros((1, m.nv))
         self.contact_wrench = np.zeros((m.nbody, 6))
         self.impulse = np.zeros((0, 6))
+        self._rows = self._row_bodies = np.zeros(0, dtype=np.int64)
         if obstacles is not None and self.two_way_contacts:
             body = m.geom_bodyid[obstacles.obstacle_geoms]
             weld = m.body_weldid[body]
             dynamic = (weld != 0) & (m.body_mocapid[weld] < 0)  # not welded to the world nor to a mocap body
             #: obstacle rows on dynamic bodies, and their bodies
-            self._rows, self._row_bodies = np.flatnonzero(dynamic), body[dynamic]
+            self._rows, self._row_bodies = np.flatnonzero(dynamic).astype(np.int64), body[dynamic].astype(np.int64)
             if len(self._rows):
                 self.impulse = np.zeros((len(body), 6))
+        self._fresh = True  # the first step after a reset runs in Python (see the module docstring)
+        self._compiled_args = self._host_arguments(scene)
 
     def reset(self, S: kernels.Chain) -> None:
         """After the data's reset: the body pins' targets at their points, the clamps' directions in their bodies."""
@@ -136,7 +152,40 @@ class Host:
         points = self.d.site_xpos[self.sites]
         S.pin_from[self.pins] = points
         S.pin_to[self.pins] = points
-        self._clamps = [(row, b, self.d.xmat[b].reshape(3, 3).T @ S.clamp_dir[row].T) for row, b, _ in self._clamps]
+        for k, (row, b) in enumerate(self._clamps):
+            self._clamp_local[k] = self.d.xmat[b].reshape(3, 3).T @ S.clamp_dir[row].T
+        self._fresh = True
+
+    def _host_arguments(self, scene: Scene) -> Optional[tuple]:
+        """:func:`host_kernels.host_substeps`'s arguments after the state, the contacts, n and h (``capi``, links,
+        clamps, gravity, ``mjData`` views, the moving obstacles, the two-way buffers), or ``None`` where MuJoCo's C
+        API is unavailable (:func:`capi.host_functions`)."""
+        fns = capi.host_functions()
+        if fns is None:
+            return None
+        m, d, o = self.m, self.d, self.obstacles
+        c = np.zeros(host_kernels.N_HC, dtype=np.int64)
+        H = host_kernels.HC
+        c[[H["step"], H["kinematics"], H["get_state"], H["set_state"], H["jac"], H["solve_m"], H["model"], H["data"],
+           H["sig"], H["nv"], H["nstate"]]] = (fns.step, fns.kinematics, fns.get_state, fns.set_state, fns.jac,
+                                              fns.solve_m, capi.model_address(m), int(d._address), int(_STATE), m.nv,
+                                              len(self._saved))
+        links = np.zeros((len(self.pins), host_kernels.N_LK), dtype=np.int64)
+        L = host_kernels.LK
+        links[:, [L["pin"], L["particle"], L["neighbour"], L["body"], L["site"]]] = np.stack(
+            [self.pins, self.particles, self.neighbours, self.bodies, self.sites], axis=1).reshape(-1, 5)
+        moving = np.zeros((0, 2), dtype=np.int64)
+        shapes = np.zeros((0, kernels.N_SH))
+        if o is not None:  # the geoms ObstacleContacts.refresh_moving refreshes, and their rows of its shapes
+            g = o.obstacle_geoms
+            body = m.geom_bodyid[g]
+            g = g[(m.body_weldid[body] != 0) | (m.body_mocapid[body] >= 0)]
+            moving = np.stack([g, o.shape_of_geom[g]], axis=1).astype(np.int64).reshape(-1, 2)
+            shapes = o.shapes
+        return (c, links, self._clamps, self._clamp_local, np.array(self.gravity, dtype=np.float64), d.site_xpos,
+                d.xipos, d.xmat, d.xfrc_applied, d.geom_xpos, d.geom_xmat, d.warning.number,
+                np.array([int(w) for w in _BAD], dtype=np.int64), moving, shapes, self.impulse, self._rows,
+                self._row_bodies, self.contact_wrench)
 
     def _inverse_masses(self, S: kernels.Chain, points: np.ndarray) -> np.ndarray:
         """(P,) 1/kg: each body's inverse mass at its pin point along the cable (step 1 of the scheme)."""
@@ -144,12 +193,9 @@ class Host:
         out = np.zeros(len(self.pins))
         for j in range(len(self.pins)):
             mujoco.mj_jac(m, d, self._jacp, None, points[j], int(self.bodies[j]))
-            axis = S.x[self.neighbours[j]] - S.x[self.particles[j]]
-            axis /= max(float(np.linalg.norm(axis)), 1e-12)
-            jn = axis @ self._jacp
-            solved = np.zeros((1, m.nv))
-            mujoco.mj_solveM(m, d, solved, jn[None])
-            out[j] = float(jn @ solved[0])
+            host_kernels.pin_axis_jacobian(S.x, self.particles[j], self.neighbours[j], self._jacp, self._jn[0])
+            mujoco.mj_solveM(m, d, self._solved, self._jn)
+            out[j] = host_kernels.dot(self._jn[0], self._solved[0])
         return out
 
     def substeps(self, S: kernels.Chain, C: kernels.Contacts, n: int,
@@ -157,7 +203,14 @@ class Host:
         """``n`` solver substeps, each with its host ``mj_step`` and each taken by ``one_substep()`` (default: the
         kernels' own whole substep, the solver stepping at h). Grippers move linearly towards their targets as in
         the plain path. Returns (finite, sockets released, a divergence reason from MuJoCo's warnings or None).
+
+        Without ``one_substep``, all ``n`` substeps run in one compiled call where MuJoCo's C API is available (but
+        for the first step after a reset), with the same results bit for bit (see the module docstring).
         """
+        if one_substep is None and self.compiled and not self._fresh and self._compiled_args is not None:
+            finite, released, warning = host_kernels.host_substeps(*S, *C, n, self.h, *self._compiled_args)
+            return finite, released, None if warning < 0 else _reason(warning)
+        self._fresh = False
         m, d, h = self.m, self.d, self.h
         start_from, start_to = S.pin_from.copy(), S.pin_to.copy()
         coupled = len(self.pins) > 0
@@ -172,11 +225,10 @@ class Host:
                 mujoco.mj_step(m, d)
                 mujoco.mj_kinematics(m, d)
                 free = d.site_xpos[self.sites].copy()
-                turned = [d.xmat[b].reshape(3, 3) @ local for _, b, local in self._clamps]
+                for k, (row, b) in enumerate(self._clamps):
+                    host_kernels.turn_clamp(d.xmat, b, self._clamp_local[k], S.clamp_dir, row)
                 mujoco.mj_setState(m, d, self._saved, _STATE)
                 target[self.pins] = free
-                for (row, _, _), dirs in zip(self._clamps, turned):
-                    S.clamp_dir[row] = dirs.T
                 free_w = np.where(w_b > _RIGID, w_b, 0.0)
                 S.w[self.particles] = free_w
             S.pin_to[:] = target
@@ -222,8 +274,13 @@ class Host:
             bad = [int(w) for w in _BAD if counts[w] > 0]
             if bad:
                 counts[bad] = 0
-                return finite, released, f"MuJoCo's warning {mujoco.mjtWarning(bad[0]).name} in the user world"
+                return finite, released, _reason(bad[0])
         S.pin_to[:] = start_to
         if coupled:
             S.pin_to[self.pins] = d.site_xpos[self.sites]
         return finite, released, None
+
+
+def _reason(warning: int) -> str:
+    """The divergence reason of MuJoCo's warning code ``warning``."""
+    return f"MuJoCo's warning {mujoco.mjtWarning(warning).name} in the user world"

@@ -34,9 +34,21 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-__all__ = ["Layout", "DataViews", "layout", "unavailable", "function_addresses", "model_address", "data_views"]
+__all__ = ["Layout", "DataViews", "layout", "unavailable", "function_addresses", "model_address", "data_views",
+           "HostFunctions", "host_functions", "host_unavailable"]
 
-_FUNCTIONS = ("mj_kinematics", "mj_collision")
+#: the user-world host's entry points (:class:`HostFunctions`) and the arguments the host kernels pass them, as the C
+#: ABI sees them ("p": a pointer; MuJoCo 3.17's mujoco.h: mj_getState/mj_setState take ``int sig``), checked against
+#: the shipped declarations (:func:`_check_host_signatures`)
+_HOST_FUNCTIONS = {
+    "mj_step": ("p", "p"),  # (const mjModel* m, mjData* d)
+    "mj_kinematics": ("p", "p"),  # (const mjModel* m, mjData* d)
+    "mj_getState": ("p", "p", "p", "int"),  # (const mjModel* m, const mjData* d, mjtNum* state, int sig)
+    "mj_setState": ("p", "p", "p", "int"),  # (const mjModel* m, mjData* d, const mjtNum* state, int sig)
+    "mj_jac": ("p", "p", "p", "p", "p", "int"),  # (m, d, mjtNum* jacp, mjtNum* jacr, const mjtNum point[3], int body)
+    "mj_solveM": ("p", "p", "p", "p", "int"),  # (const mjModel* m, mjData* d, mjtNum* x, const mjtNum* y, int n)
+}
+_FUNCTIONS = ("mj_kinematics", "mj_collision", *(f for f in _HOST_FUNCTIONS if f != "mj_kinematics"))
 _SCALARS = {"mjtNum": ctypes.c_double, "int": ctypes.c_int, "mjtSize": ctypes.c_int64, "size_t": ctypes.c_size_t,
             "uintptr_t": ctypes.c_size_t, "mjtBool": ctypes.c_bool, "mjtByte": ctypes.c_ubyte,
             "float": ctypes.c_float}
@@ -224,3 +236,66 @@ def data_views(d: mujoco.MjData, lay: Optional[Layout] = None) -> DataViews:
                      struct_i64=_words(address, lay.struct_size, ctypes.c_int64), arena_address=arena_address,
                      arena_f64=_words(arena_address, narena, ctypes.c_double),
                      arena_i32=_words(arena_address, narena, ctypes.c_int32))
+
+
+@dataclasses.dataclass(frozen=True)
+class HostFunctions:
+    """The entry points a user world's host calls from compiled code (:mod:`mjcable.solvers.host_kernels`), as
+    addresses; their C signatures (MuJoCo 3.17's ``mujoco.h``) are those of ``_HOST_FUNCTIONS``.
+
+    Attributes:
+      step, kinematics: ``mj_step``, ``mj_kinematics`` (``void f(const mjModel*, mjData*)``).
+      get_state, set_state: ``mj_getState``, ``mj_setState`` (``void f(const mjModel*, [const] mjData*, mjtNum*
+        state, int sig)``).
+      jac: ``mj_jac`` (``void f(const mjModel*, const mjData*, mjtNum* jacp, mjtNum* jacr, const mjtNum point[3],
+        int body)``).
+      solve_m: ``mj_solveM`` (``void f(const mjModel*, mjData*, mjtNum* x, const mjtNum* y, int n)``).
+    """
+
+    step: int
+    kinematics: int
+    get_state: int
+    set_state: int
+    jac: int
+    solve_m: int
+
+
+def _check_host_signatures() -> None:
+    """The shipped declarations (``mujoco.introspect``, from the headers) return void and take the arguments in
+    ``_HOST_FUNCTIONS``; raises ``RuntimeError`` otherwise."""
+    from mujoco.introspect import ast_nodes, functions
+
+    def kind(t) -> str:
+        return "p" if isinstance(t, (ast_nodes.PointerType, ast_nodes.ArrayType)) else getattr(t, "name", repr(t))
+
+    for name, expected in _HOST_FUNCTIONS.items():
+        decl = functions.FUNCTIONS[name]
+        got = tuple(kind(p.type) for p in decl.parameters)
+        if kind(decl.return_type) != "void" or got != expected:
+            raise RuntimeError(f"{name} is declared {kind(decl.return_type)} {name}{got}, the host kernels call "
+                               f"void {name}{expected}")
+
+
+@functools.lru_cache(maxsize=None)
+def _cached_host() -> tuple:
+    if layout() is None:
+        return None, unavailable()
+    try:
+        _check_host_signatures()
+        lib = _library()
+        a = {name: ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in _HOST_FUNCTIONS}
+    except Exception as exc:  # anything: the compiled host is an optimisation, the Python host stays
+        return None, f"{type(exc).__name__}: {exc}"
+    return HostFunctions(step=a["mj_step"], kinematics=a["mj_kinematics"], get_state=a["mj_getState"],
+                         set_state=a["mj_setState"], jac=a["mj_jac"], solve_m=a["mj_solveM"]), None
+
+
+def host_functions() -> Optional[HostFunctions]:
+    """The user-world host's entry points, or ``None`` where the C API is unavailable (:func:`layout` is ``None``,
+    or a declaration differs from the signature the host kernels call: :func:`host_unavailable` says which)."""
+    return _cached_host()[0]
+
+
+def host_unavailable() -> Optional[str]:
+    """Why :func:`host_functions` is ``None`` (``None`` when it is available)."""
+    return _cached_host()[1]
