@@ -46,7 +46,7 @@ from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil 
 # The projections, the direct order and the layout, re-exported: callers keep importing them from here.
 from mjcable.solvers.constraint_kernels import (
     _bend_clamp_sweeps, clamp_sweep, curvature_sweep,  # noqa: F401
-    stretch_step, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
+    stretch_step, stretch_step_rigid, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
 )
 from mjcable.solvers.contact_kernels import (
     collect_impulses, contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
@@ -80,18 +80,20 @@ __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_
 
 @_inline
 def _predict(x, v, x0, w, react, fp):
-    """Predict: x₀ ← x, ``react`` ← 0, and for every free particle (w > 0) v ← e^{−c h} v + h g, x ← x + h v
-    (semi-implicit Euler in velocity form; Verlet is the same recurrence with v read as (x − x_prev)/h, [T20]
-    Eq. 2.7 with Jakobsen's damping). ``x``, ``v``, ``x0``, ``react`` (N, 3) m, m/s; ``w`` (N,) 1/kg."""
+    """Predict: x₀ ← x, and for every free particle (w > 0) v ← e^{−c h} v + h g, x ← x + h v (semi-implicit
+    Euler in velocity form; Verlet is the same recurrence with v read as (x − x_prev)/h, [T20] Eq. 2.7 with
+    Jakobsen's damping); a held particle's (w = 0) reaction ``react`` ← 0. ``x``, ``v``, ``x0``, ``react`` (N, 3)
+    m, m/s, kg·m; ``w`` (N,) 1/kg.
+
+    Only held particles collect reactions (every sweep adds to ``react`` where w = 0, moves ``x`` elsewhere) and
+    only pinned particles are ever held, so a free particle's row stays 0 without being zeroed every substep
+    (:func:`_move_pins` zeroes the pins' rows, so a pin whose particle turned free keeps none either)."""
     h, damp = fp[_F_H], fp[_F_DAMP]
     gx, gy, gz = fp[_F_GX], fp[_F_GY], fp[_F_GZ]
     for p in range(x.shape[0]):
         x0[p, 0] = x[p, 0]
         x0[p, 1] = x[p, 1]
         x0[p, 2] = x[p, 2]
-        react[p, 0] = 0.0
-        react[p, 1] = 0.0
-        react[p, 2] = 0.0
         if w[p] > 0.0:
             # damping multiplies the velocity before gravity is added: it never changes a static equilibrium
             v[p, 0] = damp * v[p, 0] + h * gx
@@ -100,15 +102,24 @@ def _predict(x, v, x0, w, react, fp):
             x[p, 0] += h * v[p, 0]
             x[p, 1] += h * v[p, 1]
             x[p, 2] += h * v[p, 2]
+        else:
+            react[p, 0] = 0.0
+            react[p, 1] = 0.0
+            react[p, 2] = 0.0
 
 
 @_inline
-def _move_pins(x, pin_p, pin_from, pin_to, pin_active, pin_sum, substeps, sub, n_sub):
+def _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, substeps, sub, n_sub):
     """Held particles to their pin targets, interpolated linearly across the step (substep ``sub`` of ``n_sub``
-    reaches ``(sub + 1) / n_sub`` of the way from ``pin_from`` to ``pin_to`` (P, 3) m), and a pin's force sums
-    (``pin_sum`` (P, N_PS)) zeroed when they hold a whole step's ``substeps`` (:func:`_pin_forces`)."""
+    reaches ``(sub + 1) / n_sub`` of the way from ``pin_from`` to ``pin_to`` (P, 3) m), every pinned particle's
+    reaction ``react`` (N, 3) zeroed, and a pin's force sums (``pin_sum`` (P, N_PS)) zeroed when they hold a whole
+    step's ``substeps`` (:func:`_pin_forces`)."""
     frac = (sub + 1.0) / n_sub
     for k in range(pin_p.shape[0]):
+        q = pin_p[k]
+        react[q, 0] = 0.0
+        react[q, 1] = 0.0
+        react[q, 2] = 0.0
         if pin_sum[k, PS_N] >= substeps:  # the last step's sums are complete: this substep starts a new step
             for col in range(N_PS):
                 pin_sum[k, col] = 0.0
@@ -126,7 +137,7 @@ def begin_substep(S, C, sub, n_sub):
     ``lam_b`` only for its bending model, ``lam_c`` only with clamps, the contacts' only when there are some)."""
     x = S.x
     _predict(x, S.v, S.x0, S.w, S.react, S.fp)
-    _move_pins(x, S.pin_p, S.pin_from, S.pin_to, S.pin_active, S.pin_sum, S.ip[_I_SUBSTEPS], sub, n_sub)
+    _move_pins(x, S.react, S.pin_p, S.pin_from, S.pin_to, S.pin_active, S.pin_sum, S.ip[_I_SUBSTEPS], sub, n_sub)
     _zero(S.lam_s)
     bending = S.ip[_I_BEND]
     if bending == BEND_DISTANCE:
@@ -304,7 +315,7 @@ def plain_substep(x, v, x0, w, mass, react, rest, lam_s, pin_p, pin_from, pin_to
     contacts, ran hang's substep (51 particles) 0.4 µs slower than this loop of the same operations, though that
     code never ran (numba 0.68, measured; see ``scripts/bench_speed.py``)."""
     _predict(x, v, x0, w, react, fp)
-    _move_pins(x, pin_p, pin_from, pin_to, pin_active, pin_sum, ip[_I_SUBSTEPS], sub, n_sub)
+    _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, ip[_I_SUBSTEPS], sub, n_sub)
     _zero(lam_s)
     h2 = fp[_F_H] * fp[_F_H]
     at_s, k_s, sqrt_approx = fp[_F_ALPHA_S] / h2, fp[_F_K_S], ip[_I_SQRT] != 0
