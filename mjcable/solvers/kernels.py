@@ -133,30 +133,16 @@ def _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, substeps,
 def begin_substep(S, C, sub, n_sub):
     """Predict (:func:`_predict`), move held particles to their pin targets (interpolated linearly across the
     step) and, at a step's first substep, zero the pins' force sums (``pin_sum``, :func:`_move_pins`), and reset the
-    multipliers (every substep, [M16] Algorithm 1) of the constraints the configuration has (bending ``lam_d`` or
-    ``lam_b`` only for its bending model, ``lam_c`` only with clamps, the contacts' only when there are some)."""
+    multipliers (every substep, [M16] Algorithm 1)."""
     x = S.x
     _predict(x, S.v, S.x0, S.w, S.react, S.fp)
     _move_pins(x, S.react, S.pin_p, S.pin_from, S.pin_to, S.pin_active, S.pin_sum, S.ip[_I_SUBSTEPS], sub, n_sub)
-    _zero(S.lam_s)
-    bending = S.ip[_I_BEND]
-    if bending == BEND_DISTANCE:
-        _zero(S.lam_d)
-    elif bending == BEND_CURVATURE:
-        S.lam_b[:] = 0.0
-    if S.clamp_pq.shape[0]:
-        S.lam_c[:] = 0.0
-    if C.lam.shape[0]:
-        _zero(C.lam)
-    if C.slam.shape[0]:
-        C.slam[:] = 0.0
-
-
-@_inline
-def _zero(a):
-    """a ← 0 for a 1-D array (an explicit loop: cheaper than a slice assignment in the drivers)."""
-    for i in range(a.shape[0]):
-        a[i] = 0.0
+    S.lam_s[:] = 0.0
+    S.lam_d[:] = 0.0
+    S.lam_b[:] = 0.0
+    S.lam_c[:] = 0.0
+    C.lam[:] = 0.0
+    C.slam[:] = 0.0
 
 
 @_jit
@@ -316,7 +302,7 @@ def plain_substep(x, v, x0, w, mass, react, rest, lam_s, pin_p, pin_from, pin_to
     code never ran (numba 0.68, measured; see ``scripts/bench_speed.py``)."""
     _predict(x, v, x0, w, react, fp)
     _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, ip[_I_SUBSTEPS], sub, n_sub)
-    _zero(lam_s)
+    lam_s[:] = 0.0
     h2 = fp[_F_H] * fp[_F_H]
     at_s, k_s, sqrt_approx = fp[_F_ALPHA_S] / h2, fp[_F_K_S], ip[_I_SQRT] != 0
     for _ in range(ip[_I_ITER]):
