@@ -69,9 +69,9 @@ from mjcable.solvers.kernels_layout import (
 )
 
 __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_flat", "step_margin", "begin_substep",
-           "iterate", "end_substep", "is_plain", "plain_substep", "xpbd_multiplier", "stretch_step", "stretch_step_sqrt", "stretch_sweep",
+           "iterate", "end_substep", "xpbd_multiplier", "stretch_step", "stretch_step_sqrt", "stretch_sweep",
            "curvature_sweep", "clamp_sweep", "contact_sweep", "friction_sweep", "self_contact_sweep", "direct_solve",
-           "banded_ldlt_solve", "FP", "IP", "LIM"]
+           "banded_ldlt_solve", "FP", "IP", "LIM", "is_plain", "plain_substep"]
 
 
 # ---------------------------------------------------------------------------------------------------------------
