@@ -42,6 +42,19 @@ def stretch_step(dx, dy, dz, wsum, rest, alpha_tilde, lam, k):
 
 
 @_inline
+def stretch_step_rigid(dx, dy, dz, wsum, rest):
+    """:func:`stretch_step` with α̃ = 0 and k = 1 (XPBD with zero compliance; PBD at k = 1; Jakobsen's stick):
+    σ = (rest − |d|) / (Σw |d|), Δλ = σ |d|. The same numbers as :func:`stretch_step`'s (there its terms α̃ λ = 0
+    and the factor k = 1 are exact for finite λ), with two floating-point operations fewer on the Gauss-Seidel
+    sweep's serial chain (each constraint waits for the previous one's correction of their shared particle)."""
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if length < _TINY_LENGTH or wsum == 0.0:
+        return 0.0, 0.0
+    sigma = (rest - length) / (wsum * length)
+    return sigma, sigma * length
+
+
+@_inline
 def stretch_step_sqrt(dx, dy, dz, wsum, rest, k):
     """Jakobsen's stick with the square root replaced by its first-order Taylor expansion at the rest length
     ([J01], "Cloth simulation": ``delta *= r²/(delta·delta + r²) − 0.5``), mass-weighted: (|d| − r)/|d| becomes
@@ -63,7 +76,9 @@ def stretch_step_sqrt(dx, dy, dz, wsum, rest, k):
 @_inline
 def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx):
     """Stretch constraints c = 0..len(rest)−1 between particles c and c + ``gap`` (gap 1: the segments; gap 2: the
-    thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23)."""
+    thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23). α̃ = 0 and k = 1 take
+    :func:`stretch_step_rigid`."""
+    rigid = alpha_tilde == 0.0 and k == 1.0
     for c in range(rest.shape[0]):
         i = c
         j = c + gap
@@ -74,6 +89,8 @@ def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx)
         wj = w[j]
         if sqrt_approx:
             sigma, dlam = stretch_step_sqrt(dx, dy, dz, wi + wj, rest[c], k)
+        elif rigid:
+            sigma, dlam = stretch_step_rigid(dx, dy, dz, wi + wj, rest[c])
         else:
             sigma, dlam = stretch_step(dx, dy, dz, wi + wj, rest[c], alpha_tilde, lam[c], k)
         lam[c] += dlam

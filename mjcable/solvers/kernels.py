@@ -46,7 +46,7 @@ from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil 
 # The projections, the direct order and the layout, re-exported: callers keep importing them from here.
 from mjcable.solvers.constraint_kernels import (
     _bend_clamp_sweeps, clamp_sweep, curvature_sweep,  # noqa: F401
-    stretch_step, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
+    stretch_step, stretch_step_rigid, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
 )
 from mjcable.solvers.contact_kernels import (
     collect_impulses, contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
@@ -72,7 +72,7 @@ from mjcable.solvers.kernels_layout import (
 __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_flat", "step_margin", "begin_substep",
            "iterate", "end_substep", "xpbd_multiplier", "stretch_step", "stretch_step_sqrt", "stretch_sweep",
            "curvature_sweep", "clamp_sweep", "contact_sweep", "friction_sweep", "self_contact_sweep", "direct_solve",
-           "banded_ldlt_solve", "FP", "IP", "LIM"]
+           "banded_ldlt_solve", "FP", "IP", "LIM", "is_plain", "plain_substep"]
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -80,22 +80,21 @@ __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_
 
 
 @_inline
-def begin_substep(S, C, sub, n_sub):
-    """Predict (semi-implicit Euler in velocity form: v ← e^{−c h} v + h g, x ← x + h v; Verlet is the same
-    recurrence with v read as (x − x_prev)/h, [T20] Eq. 2.7 with Jakobsen's damping), move held particles to their
-    pin targets (interpolated linearly across the step), reset multipliers (every substep, [M16] Algorithm 1) and
-    reactions, and, at a step's first substep, the pins' force sums (``pin_sum``, :func:`end_substep`)."""
-    fp = S.fp
+def _predict(x, v, x0, w, react, fp):
+    """Predict: x₀ ← x, and for every free particle (w > 0) v ← e^{−c h} v + h g, x ← x + h v (semi-implicit
+    Euler in velocity form; Verlet is the same recurrence with v read as (x − x_prev)/h, [T20] Eq. 2.7 with
+    Jakobsen's damping); a held particle's (w = 0) reaction ``react`` ← 0. ``x``, ``v``, ``x0``, ``react`` (N, 3)
+    m, m/s, kg·m; ``w`` (N,) 1/kg.
+
+    Only held particles collect reactions (every sweep adds to ``react`` where w = 0, moves ``x`` elsewhere) and
+    only pinned particles are ever held, so a free particle's row stays 0 without being zeroed every substep
+    (:func:`_move_pins` zeroes the pins' rows, so a pin whose particle turned free keeps none either)."""
     h, damp = fp[_F_H], fp[_F_DAMP]
     gx, gy, gz = fp[_F_GX], fp[_F_GY], fp[_F_GZ]
-    x, v, x0, w, react = S.x, S.v, S.x0, S.w, S.react
     for p in range(x.shape[0]):
         x0[p, 0] = x[p, 0]
         x0[p, 1] = x[p, 1]
         x0[p, 2] = x[p, 2]
-        react[p, 0] = 0.0
-        react[p, 1] = 0.0
-        react[p, 2] = 0.0
         if w[p] > 0.0:
             # damping multiplies the velocity before gravity is added: it never changes a static equilibrium
             v[p, 0] = damp * v[p, 0] + h * gx
@@ -104,15 +103,41 @@ def begin_substep(S, C, sub, n_sub):
             x[p, 0] += h * v[p, 0]
             x[p, 1] += h * v[p, 1]
             x[p, 2] += h * v[p, 2]
+        else:
+            react[p, 0] = 0.0
+            react[p, 1] = 0.0
+            react[p, 2] = 0.0
+
+
+@_inline
+def _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, substeps, sub, n_sub):
+    """Held particles to their pin targets, interpolated linearly across the step (substep ``sub`` of ``n_sub``
+    reaches ``(sub + 1) / n_sub`` of the way from ``pin_from`` to ``pin_to`` (P, 3) m), every pinned particle's
+    reaction ``react`` (N, 3) zeroed, and a pin's force sums (``pin_sum`` (P, N_PS)) zeroed when they hold a whole
+    step's ``substeps`` (:func:`_pin_forces`)."""
     frac = (sub + 1.0) / n_sub
-    pin_from, pin_to, sums = S.pin_from, S.pin_to, S.pin_sum
-    for k in range(S.pin_p.shape[0]):
-        if sums[k, PS_N] >= S.ip[_I_SUBSTEPS]:  # the last step's sums are complete: this substep starts a new step
-            sums[k, :] = 0.0
-        if S.pin_active[k]:
-            p = S.pin_p[k]
+    for k in range(pin_p.shape[0]):
+        q = pin_p[k]
+        react[q, 0] = 0.0
+        react[q, 1] = 0.0
+        react[q, 2] = 0.0
+        if pin_sum[k, PS_N] >= substeps:  # the last step's sums are complete: this substep starts a new step
+            for col in range(N_PS):
+                pin_sum[k, col] = 0.0
+        if pin_active[k]:
+            p = pin_p[k]
             for comp in range(3):
                 x[p, comp] = pin_from[k, comp] + frac * (pin_to[k, comp] - pin_from[k, comp])
+
+
+@_inline
+def begin_substep(S, C, sub, n_sub):
+    """Predict (:func:`_predict`), move held particles to their pin targets (interpolated linearly across the
+    step) and, at a step's first substep, zero the pins' force sums (``pin_sum``, :func:`_move_pins`), and reset the
+    multipliers (every substep, [M16] Algorithm 1)."""
+    x = S.x
+    _predict(x, S.v, S.x0, S.w, S.react, S.fp)
+    _move_pins(x, S.react, S.pin_p, S.pin_from, S.pin_to, S.pin_active, S.pin_sum, S.ip[_I_SUBSTEPS], sub, n_sub)
     S.lam_s[:] = 0.0
     S.lam_d[:] = 0.0
     S.lam_b[:] = 0.0
@@ -205,40 +230,86 @@ def end_substep(S, C):
     with 18 N for that 0.2 ms substep (3.6 mN·s, at 0.85 N before), a socket of 5 N let go at that spike at
     t = 0.67 s; the step's mean is 2.4 N, and the socket lets go at 0.76 s at 4.6 N, as the native models."""
     fp = S.fp
-    inv_h = 1.0 / fp[_F_H]
-    inv_h2 = inv_h * inv_h
-    x, v, x0 = S.x, S.v, S.x0
+    x = S.x
     if C.shapes.shape[0]:
         if C.impulse.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
             collect_impulses(x, S.w, S.fric, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS], C.impulse)
         update_anchors(x, S.fric, S.anchor, S.anchor_ob, C.shapes)
+    _velocities(x, S.v, S.x0, 1.0 / fp[_F_H])
+    return _pin_forces(S.w, S.mass, S.react, fp, S.pin_p, S.pin_active, S.pin_release, S.pin_force, S.pin_sum,
+                       S.ip[_I_SUBSTEPS])
+
+
+@_inline
+def _velocities(x, v, x0, inv_h):
+    """v = (x − x₀) / h for every particle (``x``, ``v``, ``x0`` (N, 3) m, m/s; ``inv_h`` 1/s)."""
     for p in range(x.shape[0]):
         v[p, 0] = (x[p, 0] - x0[p, 0]) * inv_h
         v[p, 1] = (x[p, 1] - x0[p, 1]) * inv_h
         v[p, 2] = (x[p, 2] - x0[p, 2]) * inv_h
+
+
+@_inline
+def _pin_forces(w, mass, react, fp, pin_p, pin_active, pin_release, pin_force, pin_sum, substeps):
+    """The active pins' substep forces F_s = −``react`` / h² − m g (N) into ``pin_force`` (P, 3) and ``pin_sum``
+    (P, N_PS); at the step's last substep (``pin_sum`` holds ``substeps`` of them) a socket whose mean force exceeds
+    ``pin_release`` (P,) N lets go (its particle gets w = 1/m, ``pin_active`` False). Returns the number released
+    (:func:`end_substep`)."""
+    inv_h = 1.0 / fp[_F_H]
+    inv_h2 = inv_h * inv_h
     released = 0
-    sums = S.pin_sum
-    for k in range(S.pin_p.shape[0]):
-        if not S.pin_active[k]:
+    for k in range(pin_p.shape[0]):
+        if not pin_active[k]:
             continue
-        p = S.pin_p[k]
-        m = S.mass[p]
-        fx = -S.react[p, 0] * inv_h2 - m * fp[_F_GX]
-        fy = -S.react[p, 1] * inv_h2 - m * fp[_F_GY]
-        fz = -S.react[p, 2] * inv_h2 - m * fp[_F_GZ]
-        S.pin_force[k, 0], S.pin_force[k, 1], S.pin_force[k, 2] = fx, fy, fz
-        sums[k, PS_F] += fx
-        sums[k, PS_F + 1] += fy
-        sums[k, PS_F + 2] += fz
-        sums[k, PS_N] += 1.0
-        if sums[k, PS_N] >= S.ip[_I_SUBSTEPS]:
-            n = sums[k, PS_N]
-            mx, my, mz = sums[k, PS_F] / n, sums[k, PS_F + 1] / n, sums[k, PS_F + 2] / n
-            if math.sqrt(mx * mx + my * my + mz * mz) > S.pin_release[k]:
-                S.pin_active[k] = False
-                S.w[p] = 1.0 / m
+        p = pin_p[k]
+        m = mass[p]
+        fx = -react[p, 0] * inv_h2 - m * fp[_F_GX]
+        fy = -react[p, 1] * inv_h2 - m * fp[_F_GY]
+        fz = -react[p, 2] * inv_h2 - m * fp[_F_GZ]
+        pin_force[k, 0], pin_force[k, 1], pin_force[k, 2] = fx, fy, fz
+        pin_sum[k, PS_F] += fx
+        pin_sum[k, PS_F + 1] += fy
+        pin_sum[k, PS_F + 2] += fz
+        pin_sum[k, PS_N] += 1.0
+        if pin_sum[k, PS_N] >= substeps:
+            n = pin_sum[k, PS_N]
+            mx, my, mz = pin_sum[k, PS_F] / n, pin_sum[k, PS_F + 1] / n, pin_sum[k, PS_F + 2] / n
+            if math.sqrt(mx * mx + my * my + mz * mz) > pin_release[k]:
+                pin_active[k] = False
+                w[p] = 1.0 / m
                 released += 1
     return released
+
+
+@_inline
+def is_plain(S, C):
+    """Whether a substep is :func:`plain_substep`'s: Gauss-Seidel order, no bending, no clamps, no obstacle shapes
+    and no contacts."""
+    ip = S.ip
+    return (ip[_I_ORDER] == ORDER_GAUSS_SEIDEL and ip[_I_BEND] == BEND_NONE and S.clamp_pq.shape[0] == 0
+            and C.shapes.shape[0] == 0 and C.seg.shape[0] == 0 and C.pair.shape[0] == 0)
+
+
+@_inline
+def plain_substep(x, v, x0, w, mass, react, rest, lam_s, pin_p, pin_from, pin_to, pin_active, pin_release,
+                  pin_force, pin_sum, fp, ip, sub, n_sub):
+    """Substep ``sub`` of ``n_sub`` of a chain that :func:`is_plain` (stretch constraints only, Gauss-Seidel, no
+    contacts): :func:`begin_substep`, ``iterations`` × :func:`iterate` and :func:`end_substep` for that case, the
+    same arithmetic in the same order (bit for bit), on the chain's arrays passed one by one. Returns the number of
+    sockets released.
+
+    Why a separate path: the general pieces, inlined into one substep loop with the code of every order and of the
+    contacts, ran hang's substep (51 particles) 0.4 µs slower than this loop of the same operations, though that
+    code never ran (numba 0.68, measured; see ``scripts/bench_speed.py``)."""
+    _predict(x, v, x0, w, react, fp)
+    _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, ip[_I_SUBSTEPS], sub, n_sub)
+    lam_s[:] = 0.0
+    h2 = fp[_F_H] * fp[_F_H]
+    at_s, k_s, sqrt_approx = fp[_F_ALPHA_S] / h2, fp[_F_K_S], ip[_I_SQRT] != 0
+    for _ in range(ip[_I_ITER]):
+        stretch_sweep(x, x, w, react, rest, 1, at_s, lam_s, k_s, sqrt_approx)
+    _velocities(x, v, x0, 1.0 / fp[_F_H])
+    return _pin_forces(w, mass, react, fp, pin_p, pin_active, pin_release, pin_force, pin_sum, ip[_I_SUBSTEPS])
 
 
 @_inline
@@ -249,18 +320,25 @@ def run_substeps(S, C, n_sub, phase, sub):
     ``phase`` ``PHASE_ALL`` runs ``n_sub`` whole substeps (``sub`` ignored); the other phases run one piece of
     substep ``sub`` of ``n_sub``, so that a Python caller (PBD's user constraints) can act between iterations
     without a second compiled entry point: ``PHASE_BEGIN`` (predict), ``PHASE_ITERATE`` (one iteration),
-    ``PHASE_END`` (velocities and pins)."""
+    ``PHASE_END`` (velocities and pins). Whole substeps of a chain that :func:`is_plain` run
+    :func:`plain_substep`."""
     released = 0
-    iterations = S.ip[_I_ITER] if phase == PHASE_ALL else 1
-    first, last = (0, n_sub) if phase == PHASE_ALL else (sub, sub + 1)
-    for k in range(first, last):
-        if phase == PHASE_ALL or phase == PHASE_BEGIN:
-            begin_substep(S, C, k, n_sub)
-        if phase == PHASE_ALL or phase == PHASE_ITERATE:
-            for _ in range(iterations):
-                iterate(S, C)
-        if phase == PHASE_ALL or phase == PHASE_END:
-            released += end_substep(S, C)
+    if phase == PHASE_ALL and is_plain(S, C):
+        for k in range(n_sub):
+            released += plain_substep(S.x, S.v, S.x0, S.w, S.mass, S.react, S.rest, S.lam_s, S.pin_p, S.pin_from,
+                                      S.pin_to, S.pin_active, S.pin_release, S.pin_force, S.pin_sum, S.fp, S.ip, k,
+                                      n_sub)
+    else:
+        iterations = S.ip[_I_ITER] if phase == PHASE_ALL else 1
+        first, last = (0, n_sub) if phase == PHASE_ALL else (sub, sub + 1)
+        for k in range(first, last):
+            if phase == PHASE_ALL or phase == PHASE_BEGIN:
+                begin_substep(S, C, k, n_sub)
+            if phase == PHASE_ALL or phase == PHASE_ITERATE:
+                for _ in range(iterations):
+                    iterate(S, C)
+            if phase == PHASE_ALL or phase == PHASE_END:
+                released += end_substep(S, C)
     finite = True
     x, v = S.x, S.v
     for p in range(x.shape[0]):
@@ -415,11 +493,16 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
         for p in range(x.shape[0]):  # (explicit copies: faster than slice assignments here)
             prev[p, 0], prev[p, 1], prev[p, 2] = x[p, 0], x[p, 1], x[p, 2]
         let_go = 0
-        for sub in range(n_sub):  # run_substeps(S, C, n_sub, PHASE_ALL, 0), its finite check below
-            begin_substep(S, C, sub, n_sub)
-            for _ in range(ip[_I_ITER]):
-                iterate(S, C)
-            let_go += end_substep(S, C)
+        if is_plain(S, C):  # run_substeps(S, C, n_sub, PHASE_ALL, 0), its finite check below
+            for sub in range(n_sub):
+                let_go += plain_substep(x, v, x0, w, mass, react, rest, lam_s, pin_p, pin_from, pin_to, pin_active,
+                                        pin_release, pin_force, pin_sum, fp, ip, sub, n_sub)
+        else:
+            for sub in range(n_sub):
+                begin_substep(S, C, sub, n_sub)
+                for _ in range(ip[_I_ITER]):
+                    iterate(S, C)
+                let_go += end_substep(S, C)
         released += let_go
         for q in range(pin_to.shape[0]):
             pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
