@@ -463,8 +463,10 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
     C = given
     for k in range(n_steps):
         if k > 0:
-            margin = step_margin(v, lim[_L_MARGIN], lim[_L_DT], lim[_L_FALL])
-            near = obstacles and touches_obstacles(x, margin + lim[_L_RADIUS], box_lo, box_hi, plane_n, plane_p)
+            margin, near = 0.0, False
+            if obstacles or solo:  # (nothing to measure on a free cable: hang's steps skip it)
+                margin = step_margin(v, lim[_L_MARGIN], lim[_L_DT], lim[_L_FALL])
+                near = obstacles and touches_obstacles(x, margin + lim[_L_RADIUS], box_lo, box_hi, plane_n, plane_p)
             if not (near or solo):
                 C = none
                 counts[COUNT_CONTACTS], counts[COUNT_SELF] = 0, 0
