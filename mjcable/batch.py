@@ -4,10 +4,11 @@ Copy ``i`` is exactly ``Simulator(batch.scenes[i], model, dt=dt, **settings)``: 
 code, so its results equal a single Simulator's bit for bit, whatever the number of threads. What makes the threads
 run at once is that the heavy work of every model releases Python's GIL:
 
-* particle solvers (``jakobsen``, ``pbd``, ``xpbd``): the numba kernels are compiled ``nogil``
-  (:mod:`mjcable.solvers._kernel_cache`) and MuJoCo's ``mj_collision``/``mj_kinematics`` on each copy's own proxy
-  ``MjData`` release it; only the Python glue between them (a contact query per step while the cable touches an
-  obstacle) holds it;
+* particle solvers (``jakobsen``, ``pbd``, ``xpbd``): a copy's ``step(T)`` is one compiled ``nogil`` call
+  (:mod:`mjcable.solvers._kernel_cache`) that also runs the contact queries, calling MuJoCo's
+  ``mj_kinematics``/``mj_collision`` on the copy's own proxy ``MjData`` through MuJoCo's C API
+  (:mod:`mjcable.solvers.capi`); only the Python glue around that call holds the GIL. This is numba's ``prange``
+  over copies in effect (one proxy ``MjData`` per copy), with each copy still a whole Simulator;
 * native models (``springs``, ``joints``, ``composite``, ``flexrod``): ``mj_step`` on each copy's own
   ``MjModel``/``MjData`` releases it (as ``mujoco.rollout``'s threads do).
 

@@ -5,13 +5,12 @@ task and random state; :meth:`BatchEnv.step` takes one action per environment an
 same, bit for bit, as stepping each environment alone (whatever the number of threads).
 
 How parallel it is: the environments step on a thread pool (as :class:`mjcable.Batch`'s copies do). What overlaps
-between threads is the work that releases Python's GIL: the particle solvers' compiled substeps and MuJoCo's
-``mj_step``/``mj_collision``. dm_control's step, the tasks' action checks, rewards and observations, the workspace
-clamp and the per-``dt`` glue while a gripper moves are Python and hold the GIL, so they run one environment at a
-time. Measured with ``scripts/bench_batch.py --env reach_sag`` on the project's shared 2-core machine (load average
-about 6, so only indicative): ``joints`` (``mj_step`` dominates) 1.66× on 2 threads; ``xpbd`` (short steps, Python
-per ``dt`` while a gripper moves) 0.55×, slower than 1 thread. For particle models pass ``threads=1``: the
-environments then step one after another in one call, with no thread switching.
+between threads is the work that releases Python's GIL: the particle solvers' compiled steps (a control step's
+gripper path, contact queries included, is one ``nogil`` call: ``Simulator.step_along``) and MuJoCo's ``mj_step``.
+dm_control's step and the tasks' action checks, rewards and observations are Python and hold the GIL, so they run
+one environment at a time. Measured with ``scripts/bench_batch.py --env reach_sag`` on the project's idle 2-core
+machine (32 environments, 50 control steps, 2 threads against 1): ``xpbd`` 1.76×, ``joints`` 1.88×, ``pbd`` 0.96×
+(its control steps are short enough that the Python decides; pass ``threads=1`` there).
 """
 
 from __future__ import annotations

@@ -17,7 +17,9 @@ Performance notes (measured, numba 0.68, 100 particles): a per-constraint helper
 than the same arithmetic written inline, even with ``inline="always"``, and every call passing the 33-array state
 costs microseconds (reference counting per array argument). So the per-constraint functions take and return
 scalars only, the hot sweeps and the substep pieces are inlined into the drivers, the rarely used sweeps are called
-only when they have work, and the drivers take the arrays as separate arguments: ``run_substeps_flat`` (one step)
+only when they have work (and a chain with stretch constraints only, Gauss-Seidel order and no obstacles takes
+:func:`plain_substep`, the same pieces without the other branches, which cost a third of its time), and the drivers
+take the arrays as separate arguments: ``run_substeps_flat`` (one step)
 and ``run_steps_flat`` (many whole steps with the Simulator's divergence checks, the grippers following a path if
 given: one call per ``step(T)`` or ``step_along(path)`` that needs no contact query). ``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence). Numba
 caches per file, but :mod:`mjcable.solvers._kernel_cache` stamps every kernel file's cache with all kernel
