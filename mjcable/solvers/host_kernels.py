@@ -11,7 +11,8 @@ and after the host's step, b_free its trial position):
    ``mj_step``, ``mj_kinematics``, read b_free and turn the clamps' body-frame directions (:func:`turn_clamp`),
    ``mj_setState``; the particle predicted at b_free with inverse mass w_b (0 where w_b ≤ ``RIGID``);
 3. the solver's substep (:func:`mjcable.solvers.kernels.run_substeps_flat`, one whole substep: called, not inlined,
-   so that its compiled code, cached, serves here too);
+   so that its compiled code, cached, serves here too; its integer arguments are passed as ``np.int64`` values, not
+   literals, which numba would type ``Literal[int]`` and compile the whole driver a second time for, about 40 s);
 4. F = (x_p − b_free) / (w_b h h) + m_p g on each moving pin (−pin_force on a rigid one), added with its moment
    (p0 − xipos) × F to ``xfrc_applied``; the contacts' −Σ j / h² on the world's dynamic bodies
    (:func:`mjcable.solvers.contact_kernels.body_wrenches`); ``mj_step``; both taken off ``xfrc_applied`` again;
@@ -276,8 +277,8 @@ def host_substeps(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_
         ok, got = run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq,
                                     clamp_pin, clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release,
                                     pin_force, pin_sum, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, fric,
-                                    anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo, slam, shapes, impulse, 1,
-                                    PHASE_ALL, 0)
+                                    anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo, slam, shapes, impulse,
+                                    np.int64(1), np.int64(PHASE_ALL), np.int64(0))
         finite = finite and ok
         released += got
         if coupled:
