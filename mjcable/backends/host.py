@@ -177,9 +177,7 @@ class Host:
         moving = np.zeros((0, 2), dtype=np.int64)
         shapes = np.zeros((0, kernels.N_SH))
         if o is not None:  # the geoms ObstacleContacts.refresh_moving refreshes, and their rows of its shapes
-            g = o.obstacle_geoms
-            body = m.geom_bodyid[g]
-            g = g[(m.body_weldid[body] != 0) | (m.body_mocapid[body] >= 0)]
+            g = o.moving_geoms
             moving = np.stack([g, o.shape_of_geom[g]], axis=1).astype(np.int64).reshape(-1, 2)
             shapes = o.shapes
         return (c, links, self._clamps, self._clamp_local, np.array(self.gravity, dtype=np.float64), d.site_xpos,

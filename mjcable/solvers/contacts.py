@@ -61,8 +61,8 @@ class ObstacleContacts:
         self.friction[g, 0] = np.where(ours, mj_model.geom_friction[g, 0],
                                        np.maximum(mj_model.geom_friction[g, 0], mu_cable))
         body = mj_model.geom_bodyid[g]
-        #: obstacles on bodies that move (their shapes' poses are refreshed by every query)
-        self._moving = g[(mj_model.body_weldid[body] != 0) | (mj_model.body_mocapid[body] >= 0)]
+        #: (M,) the geoms of obstacles on bodies that move (their shapes' poses are refreshed by every query)
+        self.moving_geoms = g[(mj_model.body_weldid[body] != 0) | (mj_model.body_mocapid[body] >= 0)]
         #: (B, kernels.N_SH): each obstacle's MuJoCo type, size, world position and rotation
         self.shapes = np.zeros((len(g), kernels.N_SH))
         self.shapes[:, kernels.SH_TYPE] = mj_model.geom_type[g]
@@ -79,7 +79,7 @@ class ObstacleContacts:
         aabb = mj_model.geom_aabb[boxes]
         center = mj_data.geom_xpos[boxes] + np.einsum("kij,kj->ki", rot, aabb[:, :3])
         half = np.einsum("kij,kj->ki", np.abs(rot), aabb[:, 3:])
-        if len(self._moving):
+        if len(self.moving_geoms):
             half[:] = np.inf
         self._box_lo, self._box_hi = np.ascontiguousarray(center - half), np.ascontiguousarray(center + half)
         self._seg = np.zeros(0, dtype=np.int64)
@@ -90,7 +90,7 @@ class ObstacleContacts:
     @property
     def moving(self) -> bool:
         """Whether any obstacle moves (its shape is refreshed from ``mj_data`` by every query)."""
-        return len(self._moving) > 0
+        return len(self.moving_geoms) > 0
 
     @property
     def buffers(self) -> tuple:
@@ -118,8 +118,8 @@ class ObstacleContacts:
     def refresh_moving(self) -> None:
         """The moving obstacles' shapes from ``mj_data``'s current geom poses (a user world's host calls it after
         each of its steps, so that the cable meets its bodies where they are in every substep)."""
-        if len(self._moving):
-            self._refresh_shapes(self._moving)
+        if len(self.moving_geoms):
+            self._refresh_shapes(self.moving_geoms)
 
     def _refresh_shapes(self, geoms: np.ndarray) -> None:
         d = self.mj_data
