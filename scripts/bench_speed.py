@@ -8,6 +8,8 @@ Prints a markdown table (the README's "Speed" section shows one) of:
   against the kernel plus one ``mj_collision`` per step, on solver state and proxy built like the backend's from
   the simulator's own positions and velocities; and ``step(1.0)`` from the start (the cable falls for 0.2 s first);
 * every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed);
+* the ``unplug`` environment on ``xpbd``: 200 control steps against a bare Simulator rebuilt from the environment's
+  own, stepping the same simulated time (:func:`bench_env.bench`; the issue's bar is 1.3×);
 * a :class:`mjcable.Batch` of 32 ``table`` cables on ``xpbd`` (defaults): ``step(1.0)`` on 2 threads against 1
   (:func:`bench_batch.measure`; the issue's bar is 1.7× on an idle 2-core machine).
 
@@ -32,6 +34,7 @@ import numba
 import numpy as np
 
 import bench_batch  # scripts/bench_batch.py, beside this script
+import bench_env  # scripts/bench_env.py, beside this script
 import mjcable
 from mjcable import catalog
 from mjcable.mjcf import proxy
@@ -212,6 +215,11 @@ def main() -> None:
           f"{t['reference'] * ms:.2f} ms | {t['sim'] / t['reference']:.2f}× |")
     print(f"| `table`, same settings: `step(1.0)` from the start (falls, then lands) | {t['start'] * ms:.2f} ms | "
           f"| |")
+    e = bench_env.bench("unplug", "xpbd", repeats=max(args.repeats, 3))
+    print(f"| `unplug` environment, xpbd (defaults): 200 control steps of a seeded random policy vs a bare Simulator "
+          f"rebuilt from the environment's own, stepping the same simulated time ({e['env_rate']:,.0f} vs "
+          f"{e['bare_rate']:,.0f} control steps/s) | {e['env_s'][0] * ms:.2f} ms | {e['bare_s'][0] * ms:.2f} ms | "
+          f"{e['ratio']:.2f}× |")
     b = bench_batch.measure("xpbd", n=32, seconds=SECONDS, threads=(1, 2), repeats=args.repeats)
     print(f"| `mjcable.Batch` of 32 `table` cables, xpbd (defaults): `step(1.0)` on 2 threads vs 1 (ratio: 1-thread "
           f"time / 2-thread time; {b['throughput'][2]:,.0f} vs {b['throughput'][1]:,.0f} cable-steps/s; copy 0 "
