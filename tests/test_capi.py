@@ -2,11 +2,14 @@
 declarations agrees with the Python bindings' own views, and the loop that queries contacts itself gives the same
 simulation bit for bit as the loop that returns to Python for every ``mujoco.mj_collision``."""
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
 import mjcable
+from mjcable.backends import particle
 from mjcable.backends.particle import ParticleBackend
 from mjcable.solvers import capi
 from mjcable.solvers.contacts import ObstacleContacts
@@ -116,3 +119,32 @@ def test_without_the_c_api_the_loop_returns_to_python_for_queries(monkeypatch):
     assert python_queries == fallback["counts"][2] > 20
     for key in fast:
         np.testing.assert_array_equal(fallback[key], fast[key], err_msg=key)
+
+
+def test_self_contacts_overflowing_in_the_loop_are_queried_once(monkeypatch):
+    """A loop dropped onto the table, its upper end falling across its lower part (self contacts appear after about
+    0.1 s), with room for 1 self contact at first: the loop hands the steps that overflow back to Python, which grows
+    the buffers; state and diagnostics (contacts, self contacts, queries) are those of the per-step Python path
+    (``compiled_steps`` off)."""
+    table = mjcable.scenes.get("table")
+    loop = [(-0.2, 0, 0.78), (0.1, 0, 0.78), (0.15, 0.08, 0.79), (0.05, 0.12, 0.80), (0.0, 0.0, 0.81), (0.0, -0.1, 0.81)]
+    scene = dataclasses.replace(table, cable=dataclasses.replace(table.cable, points=tuple(loop), n_segments=30))
+    grown = []
+    real = ParticleBackend._grow_self_buffers
+
+    def grow(self, capacity):  # one slot at a time (not doubling): the buffers also overflow inside the loop
+        have = len(getattr(self, "_self_pair", ()))  # (none yet when the backend first makes them)
+        grown.append(have)
+        real(self, have + 1)
+
+    out = []
+    for compiled_steps in (True, False):
+        monkeypatch.setattr(particle, "_SELF_CONTACT_CAPACITY", 0)  # 1 slot
+        monkeypatch.setattr(ParticleBackend, "compiled_steps", compiled_steps)
+        monkeypatch.setattr(ParticleBackend, "_grow_self_buffers", grow)
+        out.append(_run(scene, "xpbd", True, monkeypatch, seconds=0.3, self_collision=True)[0])
+    looped, stepped = out
+    assert len(grown) > 2  # the buffers overflowed and grew, in the loop too
+    assert stepped["counts"][2] > 20
+    for key in stepped:
+        np.testing.assert_array_equal(looped[key], stepped[key], err_msg=key)

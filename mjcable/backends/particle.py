@@ -131,6 +131,7 @@ class ParticleBackend:
         self.reset()
 
     def _grow_self_buffers(self, capacity: int) -> None:
+        capacity = max(capacity, 1)
         self._self_pair = np.zeros((capacity, 2), dtype=np.int64)
         self._self_geo = np.zeros((capacity, 5))
         self._self_lam = np.zeros((capacity, 2))

@@ -16,7 +16,10 @@ module finds what that needs, once per process:
 * per ``MjData`` (:class:`DataViews`): numpy views of its struct (``ncon``, the ``contact`` pointer) and of its arena
   (where ``mj_collision`` writes the contacts), valid while the ``MjData`` lives (MuJoCo never moves them).
 
-Where the layout is unavailable, the particle backend queries in Python (``mujoco.mj_collision`` and the bindings'
+A MuJoCo *error* (``mju_error``) inside a call made by address ends the process: MuJoCo's default handler runs, not
+the bindings' (which turn errors into ``mujoco.FatalError`` around their own calls only). The callers keep a first
+call through the bindings after each start or reset (:func:`mjcable.solvers.query_kernels.query_obstacles`,
+:mod:`mjcable.solvers.host_kernels`). Where the layout is unavailable, the particle backend queries in Python (``mujoco.mj_collision`` and the bindings'
 contact views), with identical results (``tests/test_capi.py``). The numba side, the calls and the reads, is
 :func:`mjcable.solvers.query_kernels.query_obstacles`.
 """

@@ -29,8 +29,8 @@ bindings loaded), one small intrinsic per C signature; addresses are runtime int
 
 Caveat: MuJoCo's *warnings* inside these calls are fine (they print through MuJoCo's handler and count in
 ``mjData.warning``), but a MuJoCo *error* (``mju_error``, e.g. the arena running out of memory) cannot become a Python
-exception here: the bindings' error handler throws a C++ exception, which cannot unwind through numba's frames and
-ends the process. The host therefore takes the first step after each reset in Python (an error of the starting
+exception here: the bindings turn errors into exceptions only around their own calls, so a call by address meets
+MuJoCo's default handler, which prints the error and ends the process (measured). The host therefore takes the first step after each reset in Python (an error of the starting
 state, such as a model whose arena is too small, is then the bindings' ``mujoco.FatalError``); an error that only
 a later state meets is not guarded.
 """

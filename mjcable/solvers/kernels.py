@@ -476,17 +476,17 @@ def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam
                 return k, True, released, False, stored
             else:  # the query of ParticleBackend._find_contacts, in the loop
                 n_con = n_self = 0
-                if near:
+                if solo:
+                    n_self = find_self_contacts(x, 2.0 * lim[_L_RADIUS] + margin, pair_buf, sgeo_buf)
+                    if n_self < 0:
+                        return k, True, released, False, stored
+                if near:  # last: a query handed back to Python is counted there, once
                     n_con = query_obstacles(x, margin, capi, struct_i32, struct_i64, arena_f64, arena_i32, pose_pos,
                                             pose_quat, pair_margin, segment_of_geom, shape_of_geom, geom_friction,
                                             lim[_L_RADIUS], seg_buf, geo_buf)
                     if n_con < 0:
                         return k, True, released, False, stored
                     counts[COUNT_QUERIES] += 1
-                if solo:
-                    n_self = find_self_contacts(x, 2.0 * lim[_L_RADIUS] + margin, pair_buf, sgeo_buf)
-                    if n_self < 0:
-                        return k, True, released, False, stored
                 C = Contacts(seg_buf[:n_con], geo_buf[:n_con], lam_buf[:n_con], pair_buf[:n_self], sgeo_buf[:n_self],
                              slam_buf[:n_self], shapes, impulse)
                 counts[COUNT_CONTACTS], counts[COUNT_SELF] = n_con, n_self

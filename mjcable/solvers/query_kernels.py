@@ -191,7 +191,13 @@ def query_obstacles(x, margin, capi, struct_i32, struct_i64, arena_f64, arena_i3
     ``capi[CAPI_PAIR_STOP]``) set to ``margin`` (m), ``mj_collision``, then MuJoCo's contacts (``ncon`` and the
     contact array, read from the ``mjData`` struct and arena views at the offsets in ``capi``:
     :class:`mjcable.solvers.capi.Layout`) into ``seg``, ``geo`` as :func:`contacts_from_mujoco`. Returns their
-    number, or −1 when MuJoCo found more contacts than ``seg`` holds (the caller grows it and queries again)."""
+    number, or −1 when MuJoCo found more contacts than ``seg`` holds (the caller grows it and queries again) or
+    when the contact array does not lie, aligned, inside the arena (the caller queries through the bindings).
+
+    A MuJoCo *error* in these calls (``mju_error``, e.g. the arena running out) cannot become a Python exception:
+    called by address, MuJoCo's own handler runs, prints the error and ends the process. The proxy's arena holds
+    tens of thousands of contacts, and each :meth:`~mjcable.backends.particle.ParticleBackend.run` call queries its
+    first step through the bindings, where an error raises ``mujoco.FatalError``."""
     proxy_poses(x, pose_pos, pose_quat)
     _call_model_data(capi[CAPI_KINEMATICS], capi[CAPI_MODEL], capi[CAPI_DATA])
     for p in range(capi[CAPI_PAIR_START], capi[CAPI_PAIR_STOP]):
@@ -202,6 +208,8 @@ def query_obstacles(x, margin, capi, struct_i32, struct_i64, arena_f64, arena_i3
         return -1
     base = struct_i64[capi[CAPI_CONTACT]] - capi[CAPI_ARENA]  # bytes from the arena's start to contact[0]
     stride = capi[CAPI_STRIDE]
+    if base < 0 or base % 8 != 0 or base + ncon * stride > 8 * arena_f64.shape[0]:
+        return -1
     count = 0
     at_particle = np.full(x.shape[0], -1, dtype=np.int64)
     for c in range(ncon):
