@@ -117,6 +117,9 @@ class ParticleBackend:
         self._host = Host(scene, m, self.mj_data, self.h, self._obstacles) if scene.world is not None else None
         self._grow_self_buffers(_SELF_CONTACT_CAPACITY * n)
         self._loop_query = self._query_arguments()
+        self._loop_can_query = self._loop_query is not None
+        if self._loop_query is None:  # the loop returns for every query: its query arguments are never read
+            self._loop_query = self._inert_query_arguments()
         self._gravity = float(np.linalg.norm(self.mj_model.opt.gravity))  # m/s²
         self._fall = 0.5 * self._gravity * dt**2  # m: what gravity adds to one step's travel
         # run()'s buffers: the step driver's limits (kernels.LIM), positions before a step, mj_data.time
@@ -260,9 +263,7 @@ class ParticleBackend:
         done = stored = 0
         reason = previous = None
         query = self._loop_query
-        if query is None:  # the loop returns for every query: its query arguments are never read
-            query = self._inert_query_arguments()
-        query[0][kernels.CAPI["enabled"]] = self.compiled_query and self._loop_query is not None
+        query[0][kernels.CAPI["enabled"]] = self.compiled_query and self._loop_can_query
         counts = np.zeros(3, dtype=np.int64)
         while done < count:
             t0 = time.perf_counter()
@@ -330,7 +331,7 @@ class ParticleBackend:
                 self._grow_self_buffers(2 * self._self_pair.shape[0])
                 count = query_kernels.find_self_contacts(S.x, reach, self._self_pair, self._self_geo)
             contacts = contacts._replace(pair=self._self_pair[:count], sgeo=self._self_geo[:count],
-                                         slam=np.zeros((count, 2)))
+                                         slam=self._self_lam[:count])  # (zeroed by every substep)
             self.last_self_contact_count = count
         self.contacts = contacts
 
