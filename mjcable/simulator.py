@@ -12,37 +12,17 @@ import math
 from typing import Optional
 
 import mujoco
-import numba
 import numpy as np
 
 from mjcable import _validate, catalog
+from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend, check_failure
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
+from mjcable.solvers.monitor_kernels import step_check
 
 __all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE"]
 
-MAX_SPEED = 200.0  # m/s: a cable particle faster than this has diverged
-MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
 _STEP_EPS = 1e-9  # fraction of dt forgiven when counting whole steps in an accumulated duration
-
-
-@numba.njit(cache=True, nogil=True)
-def _measure(x: np.ndarray, previous: np.ndarray) -> tuple:
-    """What :meth:`Simulator._check` tests, in one pass over positions ``x`` (N, 3) m and ``previous`` (N, 3) m (the
-    positions before the step): (all finite, largest |coordinate| in m, the largest particle travel in m). The
-    arithmetic of ``np.max(np.abs(x))`` and ``np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))`` (and of the
-    particle solvers' compiled loop, :func:`mjcable.solvers.kernels.run_steps_flat`), at a fraction of their
-    per-call cost."""
-    finite, far, top = True, 0.0, 0.0
-    for p in range(x.shape[0]):
-        d2 = 0.0
-        for comp in range(3):
-            finite = finite and math.isfinite(x[p, comp])
-            far = max(far, abs(x[p, comp]))
-            d = x[p, comp] - previous[p, comp]
-            d2 += d * d
-        top = max(top, d2)
-    return finite, far, math.sqrt(top)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,7 +77,10 @@ class Simulator:
         self._gripper_pins = np.array(scene.grippers, dtype=np.int64)  # step_along's default pins (numba: kept writable)
         self.model = model
         self.family = entry.family
-        self._backend = entry.backend(scene, entry, self.dt, self.settings)
+        backend = entry.backend(scene, entry, self.dt, self.settings)
+        if not isinstance(backend, Backend):  # pragma: no cover - a catalogue entry's bug
+            raise TypeError(f"model {model!r}'s backend {type(backend).__name__} does not implement Backend")
+        self._backend: Backend = backend
         n = scene.cable.n_particles
         self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
         self._start_steps()
@@ -106,7 +89,10 @@ class Simulator:
         self._steps = 0
         self._pending = 0.0
         self._positions = self._backend.positions()
-        self._check(self._positions, None)
+        reason = check_failure(*step_check(self._positions, self._positions, self._positions, self.dt, MAX_DISTANCE,
+                                           MAX_SPEED))
+        if reason is not None:
+            raise SimulationDivergedError(self.model, 0, 0.0, reason)
 
     # -- state ----------------------------------------------------------------------------------------------------
 
@@ -199,44 +185,24 @@ class Simulator:
         self._pending = max(self._pending - count * self.dt, 0.0)
         return count
 
-    def _advance(self) -> None:
-        """One step through the backend's :meth:`step` (the per-step path), checked."""
-        reason = self._backend.step()
-        self._steps += 1
-        previous = self._positions
-        self._positions = self._backend.positions()
-        self._check(self._positions, previous, reason)
-
-    def _in_kernel(self, count: int) -> bool:
-        """Whether ``count`` steps go to the backend's ``run`` in one call (many steps in compiled code, the
-        divergence checks included) rather than one :meth:`_advance` each: a backend that offers it (the particle
-        solvers' ``runs_steps``) and more than one step (one gains nothing from the loop)."""
-        return count > 1 and getattr(self._backend, "runs_steps", False)
-
     def _run(self, count: int, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray, path: Optional[tuple] = None,
              until_release: bool = False) -> int:
         """``count`` steps through the backend's ``run``, recording the state after the steps ``rows`` (R,)
         (ascending, 1..count) into ``out_x``, ``out_v`` (R, N, 3), the grippers following ``path`` (``(pins,
         targets)`` of :meth:`step_along`) and, with ``until_release``, stopping after a step in which a socket let
-        go. A step that the compiled loop flagged is checked again here (:meth:`_check`: the same tests in the
-        same arithmetic), so that the error is the per-step path's. Returns the steps taken."""
-        done = stored = 0
-        released = len(self._backend.released)
-        while done < count:
-            rest = None if path is None else (path[0], path[1][done:])
-            k, recorded, reason, previous = self._backend.run(
-                count - done, max_distance=MAX_DISTANCE, max_speed=MAX_SPEED,
-                rows=rows[stored:] - done if len(rows) else rows, out_x=out_x[stored:], out_v=out_v[stored:],
-                path=rest, until_release=until_release)
-            done += k
-            stored += recorded
-            self._steps += k
-            self._positions = self._backend.positions()
-            if previous is not None:
-                self._check(self._positions, previous, reason)  # raises naming the step (or goes on after a near miss)
-            if until_release and len(self._backend.released) != released:
-                break
-        return done
+        go. Returns the steps taken.
+
+        Raises:
+          SimulationDivergedError: naming the step that failed its checks."""
+        if count == 0:
+            return 0
+        result = self._backend.run(count, rows=rows, out_x=out_x, out_v=out_v, path=path,
+                                   until_release=until_release)
+        self._steps += result.steps
+        self._positions = self._backend.positions()
+        if result.failure is not None:
+            raise SimulationDivergedError(self.model, self._steps, self.time, result.failure)
+        return result.steps
 
     def step(self, seconds: Optional[float] = None) -> None:
         """Advance by whole steps of ``dt``; the remainder of ``seconds`` carries over to the next call.
@@ -247,13 +213,8 @@ class Simulator:
         Raises:
           SimulationDivergedError: NaN, runaway state or a MuJoCo warning.
         """
-        count = self._count(seconds)
-        if self._in_kernel(count):
-            rows, none = self._no_rows
-            self._run(count, rows, none, none)
-            return
-        for _ in range(count):
-            self._advance()
+        rows, none = self._no_rows
+        self._run(self._count(seconds), rows, none, none)
 
     def step_along(self, path, *, pins=None, until_release: bool = False) -> int:
         """Take one step of ``dt`` per row of ``path``, the grippers moved to that row before the step.
@@ -293,23 +254,8 @@ class Simulator:
                              f"positions per step), got {path!r}")
         if not np.isfinite(targets).all():
             raise ValueError(f"path must be finite, got {path!r}")
-        count = len(targets)
-        if self._in_kernel(count):  # the backend sends every gripper to its row (where it is: it stays, bit for bit)
-            rows, none = self._no_rows
-            return self._run(count, rows, none, none, (pins, targets), bool(until_release))
-        moved = np.empty(targets.shape[:2], dtype=bool)  # (steps, G): whether a gripper's row differs from its last
-        if count:
-            positions = self._backend.gripper_positions()
-            np.any(targets[:1] != positions[[self._grippers.index(k) for k in pins.tolist()]], axis=2, out=moved[:1])
-            np.any(targets[1:] != targets[:-1], axis=2, out=moved[1:])
-        released = len(self._backend.released) if until_release else 0
-        for i in range(count):
-            for g in np.flatnonzero(moved[i]).tolist():
-                self._backend.move_gripper(int(pins[g]), targets[i, g])
-            self._advance()
-            if until_release and len(self._backend.released) != released:
-                return i + 1
-        return count
+        rows, none = self._no_rows
+        return self._run(len(targets), rows, none, none, (pins, targets), bool(until_release))
 
     def _path_pins(self, pins) -> np.ndarray:
         """``pins`` as a (G,) int64 array of distinct gripper pins (``None``: ``scene.grippers``).
@@ -349,16 +295,10 @@ class Simulator:
         shape = (len(rows),) + self._positions.shape
         start = self._steps
         times, pos, vel = (np.array(rows, dtype=np.int64) + start) * self.dt, np.empty(shape), np.empty(shape)
-        if self._in_kernel(count):
+        if count == 0:
+            pos[0], vel[0] = self._positions, self._backend.velocities()
+        else:
             self._run(count, np.array(rows, dtype=np.int64), pos, vel)
-            return Trajectory(times=times, positions=pos, velocities=vel)
-        r = 0
-        for k in range(count + 1):
-            if k > 0:
-                self._advance()
-            if r < len(rows) and rows[r] == k:
-                pos[r], vel[r] = self._positions, self._backend.velocities()
-                r += 1
         return Trajectory(times=times, positions=pos, velocities=vel)
 
     def reset(self) -> None:
@@ -366,19 +306,6 @@ class Simulator:
         masses added with :meth:`add_point_mass` stay)."""
         self._backend.reset()
         self._start_steps()
-
-    def _check(self, x: np.ndarray, previous: Optional[np.ndarray], reason: Optional[str] = None) -> None:
-        finite, far, travel = _measure(x, x if previous is None else previous)
-        if reason is None and not finite:
-            reason = "non-finite particle positions (NaN or inf)"
-        if reason is None and far > MAX_DISTANCE:
-            reason = f"a particle ran off beyond {MAX_DISTANCE:g} m"
-        if reason is None and previous is not None:
-            speed = travel / self.dt
-            if speed > MAX_SPEED:
-                reason = f"a particle moved at {speed:.3g} m/s (limit {MAX_SPEED:g} m/s)"
-        if reason is not None:
-            raise SimulationDivergedError(self.model, self._steps, self.time, reason)
 
     # -- actions --------------------------------------------------------------------------------------------------
 

@@ -37,9 +37,7 @@ import bench_batch  # scripts/bench_batch.py, beside this script
 import bench_env  # scripts/bench_env.py, beside this script
 import mjcable
 from mjcable import catalog
-from mjcable.mjcf import proxy
-from mjcable.solvers import kernels, query_kernels, state
-from mjcable.solvers.contacts import ObstacleContacts
+from mjcable.solvers import kernels
 
 SETTINGS = dict(order="gauss-seidel", substeps=4, iterations=1)  # the issue's setting for both ratios
 SECONDS = 1.0
@@ -99,70 +97,71 @@ def _best_pair(fn, other, repeats: int, prepare=None, prepare_other=None) -> tup
     return best[0], best[1]
 
 
-def _chain(sim: mjcable.Simulator) -> kernels.Chain:
-    """The solver state of ``sim``'s scene built the way the particle backend builds it, at ``sim``'s state."""
-    entry = catalog.get(sim.model)
-    rules = entry.rules(sim.scene, sim.settings, sim.dt / sim.settings.substeps)
-    S = state.new_chain(sim.scene, rules, sim.settings, sim.dt)
-    np.copyto(S.x, sim.positions)
-    np.copyto(S.v, sim.velocities)
-    return S
-
-
-def _snapshot(S: kernels.Chain):
-    """A function that copies the arrays of ``S`` back to their present values."""
-    saved = [a.copy() for a in S]
-    return lambda: [np.copyto(a, b) for a, b in zip(S, saved)]
+def _start_arrays(scene, sim) -> tuple:
+    """The hanging chain's start state as the minimal loop takes it: positions, velocities (zero), inverse masses
+    (0 at the pins) and rest lengths, from the scene alone."""
+    cable = scene.cable
+    x = np.array(cable.particles, dtype=np.float64)
+    w = 1.0 / np.array(cable.particle_masses, dtype=np.float64)
+    w[[scene.pin_particle(k) for k in range(len(scene.pins))]] = 0.0
+    return x, np.zeros_like(x), x.copy(), w, np.full(cable.n_segments, cable.segment_length)
 
 
 def bench_hang(repeats: int) -> dict:
     """``step(1.0)`` on ``hang`` from the start state against :func:`minimal_loop` on the same particles."""
-    sim = mjcable.Simulator(mjcable.scenes.get("hang"), "xpbd", **SETTINGS)
+    scene = mjcable.scenes.get("hang")
+    sim = mjcable.Simulator(scene, "xpbd", **SETTINGS)
     steps = int(round(SECONDS / sim.dt))
-    S = _chain(sim)  # the start state
+    x, v, x0, w, rest = _start_arrays(scene, sim)
+    start = [a.copy() for a in (x, v)]
     h = sim.dt / sim.settings.substeps
     n_sub = steps * sim.settings.substeps
     gz = float(sim.mj_model.opt.gravity[2])
-    restore = _snapshot(S)
+
+    def restore():
+        np.copyto(x, start[0])
+        np.copyto(v, start[1])
+
     sim.step(0.01)  # warm-up (compiles or loads the kernels)
-    minimal_loop(S.x, S.v, S.x0, S.w, S.rest, h, gz, 1)
-    minimal = lambda: minimal_loop(S.x, S.v, S.x0, S.w, S.rest, h, gz, n_sub)  # noqa: E731
+    minimal_loop(x, v, x0, w, rest, h, gz, 1)
+    minimal = lambda: minimal_loop(x, v, x0, w, rest, h, gz, n_sub)  # noqa: E731
     t_sim, t_min = _best_pair(lambda: sim.step(SECONDS), minimal, repeats, sim.reset, restore)
     assert sim.steps == steps
     return dict(sim=t_sim, minimal=t_min, steps=steps, substeps=n_sub)
 
 
 def bench_table(repeats: int) -> dict:
-    """``step(1.0)`` on ``table`` with the cable at rest on the table, against the kernel plus one ``mj_collision``
-    per step on a copy of the same state and contacts; and ``step(1.0)`` from the start."""
+    """``step(1.0)`` on ``table`` with the cable at rest on the table, against the substep kernel plus one
+    ``mj_collision`` per step on a second simulator's state and contacts (the benchmark reaches into its backend on
+    purpose: the reference is the kernel alone); and ``step(1.0)`` from the start."""
     scene = mjcable.scenes.get("table")
     sim = mjcable.Simulator(scene, "xpbd", **SETTINGS)
     sim.step(0.01)
     t_start = _best(lambda: sim.step(SECONDS), repeats, prepare=sim.reset)
     sim.reset()
     sim.step(1.5)  # lying on the table: every step queries its contacts from here on
-    S = _chain(sim)
     contacts = sim.diagnostics["contacts"]
+    ref = mjcable.Simulator(scene, "xpbd", **SETTINGS)
+    ref.step(1.5)
+    S, arrays = ref._backend.state, ref._backend.arrays
+    saved = {k: arrays[k].copy() for k in ("x", "v", "x0", "pin_from", "pin_to", "fric", "anchor", "anchor_ob")}
     steps = int(round(SECONDS / sim.dt))
-    # the proxy posed from the particles, the contacts it finds, then per step: mj_collision + one kernel call
-    m = catalog.get(sim.model).build(scene, sim.settings, sim.dt).compile()
-    d = mujoco.MjData(m)
-    n = scene.cable.n_segments
-    geoms = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, proxy.segment_name(i)) for i in range(n)])
-    query_kernels.proxy_poses(S.x, d.mocap_pos[:n], d.mocap_quat[:n])
-    mujoco.mj_kinematics(m, d)
-    margin = sim.settings.contact_margin + 0.5 * 9.81 * sim.dt**2  # at rest: the margin and one step's fall
-    C = ObstacleContacts(scene, m, d, geoms).query(S.x, margin, state.empty_contacts())
     substeps = sim.settings.substeps
-    restore = _snapshot(S)
+    m, d = ref.mj_model, ref.mj_data
+
+    def restore():
+        for k, a in saved.items():
+            np.copyto(arrays[k], a)
 
     def reference():
         for _ in range(steps):
             mujoco.mj_collision(m, d)
-            kernels.run_substeps_flat(*S, *C, substeps, kernels.PHASE_ALL, 0)
+            for sub in range(substeps):
+                kernels.substep(S, sub, substeps)
 
     t_sim, t_ref = _best_pair(lambda: sim.step(SECONDS), reference, repeats, prepare_other=restore)
-    return dict(sim=t_sim, reference=t_ref, start=t_start, contacts=contacts, ref_contacts=len(C.seg), steps=steps)
+    return dict(sim=t_sim, reference=t_ref, start=t_start, contacts=contacts,
+                ref_contacts=ref.diagnostics["contacts"], steps=steps)
 
 
 def bench_native(repeats: int) -> dict:

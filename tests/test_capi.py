@@ -1,6 +1,7 @@
 """MuJoCo's C API from the compiled step loop (:mod:`mjcable.solvers.capi`): the struct layout read from the shipped
 declarations agrees with the Python bindings' own views, and the loop that queries contacts itself gives the same
-simulation bit for bit as the loop that returns to Python for every ``mujoco.mj_collision``."""
+simulation bit for bit as the fallback that returns to Python for every ``mujoco.mj_collision`` (where the layout
+does not check out)."""
 
 import dataclasses
 
@@ -9,9 +10,7 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable.backends import particle
-from mjcable.backends.particle import ParticleBackend
-from mjcable.solvers import capi
+from mjcable.solvers import capi, state
 from mjcable.solvers.contacts import ObstacleContacts
 
 _PILE = """<mujoco><worldbody><geom type="plane" size="2 2 0.1"/>
@@ -52,9 +51,12 @@ def _state(sim) -> dict:
                 counts=np.array([sim.diagnostics[k] for k in ("contacts", "self_contacts", "queries")]))
 
 
-def _run(scene, model, compiled_query, monkeypatch, seconds=0.4, **settings) -> tuple:
-    """The state after ``seconds`` of steps in one call, and how many contact queries Python ran for it."""
-    monkeypatch.setattr(ParticleBackend, "compiled_query", compiled_query)
+def _run(scene, model, monkeypatch, seconds=0.4, c_api=True, **settings) -> tuple:
+    """The state after ``seconds`` of steps in one call, and how many contact queries Python ran for it (through
+    the bindings; the first, at construction, is the backend's check of the starting state)."""
+    if not c_api:
+        monkeypatch.setattr(capi, "_cached", lambda: (None, "RuntimeError: test"))
+        assert capi.layout() is None and capi.unavailable() == "RuntimeError: test"
     calls = {"n": 0}
     real = ObstacleContacts.query
 
@@ -67,7 +69,7 @@ def _run(scene, model, compiled_query, monkeypatch, seconds=0.4, **settings) -> 
     sim.step(seconds)
     out = _state(sim)
     monkeypatch.undo()
-    return out, calls["n"]
+    return out, calls["n"] - 1
 
 
 @pytest.mark.parametrize("scene_name,model,settings", [
@@ -78,73 +80,26 @@ def _run(scene, model, compiled_query, monkeypatch, seconds=0.4, **settings) -> 
 ])
 def test_the_loop_queries_contacts_itself_bit_for_bit(scene_name, model, settings, monkeypatch):
     scene = mjcable.scenes.get(scene_name, n_segments=16)
-    fast, python_queries_fast = _run(scene, model, True, monkeypatch, **settings)
-    slow, python_queries_slow = _run(scene, model, False, monkeypatch, **settings)
+    fast, python_queries_fast = _run(scene, model, monkeypatch, **settings)
+    slow, python_queries_slow = _run(scene, model, monkeypatch, c_api=False, **settings)
     assert fast["counts"][2] > 20  # the cable met the obstacles for many steps
     assert python_queries_slow == slow["counts"][2]  # every query went through Python ...
-    assert python_queries_fast <= 1  # ... or, but the call's first step, through the C API in the loop
+    assert python_queries_fast == 0  # ... or through the C API in the loop
     for key in slow:
         np.testing.assert_array_equal(fast[key], slow[key], err_msg=f"{key} differs between the two queries")
 
 
-def test_a_query_that_overflows_the_loop_buffers_returns_to_python(monkeypatch):
-    """With room for 2 contacts, the loop hands the query back to Python, which grows the buffers; the simulation is
-    the same as with ample buffers."""
-    scene = mjcable.scenes.get("table", n_segments=16)
-    ample, _ = _run(scene, "xpbd", True, monkeypatch)
-    monkeypatch.setattr(ObstacleContacts, "reserve", _reserve_at_most_2)
-    tight, python_queries = _run(scene, "xpbd", True, monkeypatch)
-    assert python_queries > 1  # handed back
-    for key in ample:
-        np.testing.assert_array_equal(tight[key], ample[key], err_msg=key)
-
-
-_REAL_RESERVE = ObstacleContacts.reserve
-
-
-def _reserve_at_most_2(self, capacity):
-    """:meth:`ObstacleContacts.reserve` that starts the buffers at 2 contacts (growing as asked afterwards)."""
-    if len(self._seg) == 0:
-        capacity = 1
-    _REAL_RESERVE(self, capacity)
-
-
-def test_without_the_c_api_the_loop_returns_to_python_for_queries(monkeypatch):
-    """Where the layout does not check out the backend falls back to Python's query, with the same results."""
-    scene = mjcable.scenes.get("table", n_segments=16)
-    fast, _ = _run(scene, "xpbd", True, monkeypatch)
-    monkeypatch.setattr(capi, "_cached", lambda: (None, "RuntimeError: test"))
-    assert capi.layout() is None and capi.unavailable() == "RuntimeError: test"
-    fallback, python_queries = _run(scene, "xpbd", True, monkeypatch)
-    assert python_queries == fallback["counts"][2] > 20
-    for key in fast:
-        np.testing.assert_array_equal(fallback[key], fast[key], err_msg=key)
-
-
-def test_self_contacts_overflowing_in_the_loop_are_queried_once(monkeypatch):
-    """A loop dropped onto the table, its upper end falling across its lower part (self contacts appear after about
-    0.1 s), with room for 1 self contact at first: the loop hands the steps that overflow back to Python, which grows
-    the buffers; state and diagnostics (contacts, self contacts, queries) are those of the per-step Python path
-    (``compiled_steps`` off)."""
+@pytest.mark.parametrize("c_api", [True, False])
+def test_contact_buffers_grow_in_the_loop(c_api, monkeypatch):
+    """With no room for contacts at first (obstacle and self contacts), the loop grows its buffers as the queries
+    need; the simulation is the same as with ample buffers."""
     table = mjcable.scenes.get("table")
     loop = [(-0.2, 0, 0.78), (0.1, 0, 0.78), (0.15, 0.08, 0.79), (0.05, 0.12, 0.80), (0.0, 0.0, 0.81), (0.0, -0.1, 0.81)]
     scene = dataclasses.replace(table, cable=dataclasses.replace(table.cable, points=tuple(loop), n_segments=30))
-    grown = []
-    real = ParticleBackend._grow_self_buffers
-
-    def grow(self, capacity):  # one slot at a time (not doubling): the buffers also overflow inside the loop
-        have = len(getattr(self, "_self_pair", ()))  # (none yet when the backend first makes them)
-        grown.append(have)
-        real(self, have + 1)
-
-    out = []
-    for compiled_steps in (True, False):
-        monkeypatch.setattr(particle, "_SELF_CONTACT_CAPACITY", 0)  # 1 slot
-        monkeypatch.setattr(ParticleBackend, "compiled_steps", compiled_steps)
-        monkeypatch.setattr(ParticleBackend, "_grow_self_buffers", grow)
-        out.append(_run(scene, "xpbd", True, monkeypatch, seconds=0.3, self_collision=True)[0])
-    looped, stepped = out
-    assert len(grown) > 2  # the buffers overflowed and grew, in the loop too
-    assert stepped["counts"][2] > 20
-    for key in stepped:
-        np.testing.assert_array_equal(looped[key], stepped[key], err_msg=key)
+    ample, _ = _run(scene, "xpbd", monkeypatch, seconds=0.3, c_api=c_api, self_collision=True)
+    monkeypatch.setattr(state, "_CONTACT_CAPACITY", 0)
+    monkeypatch.setattr(state, "_SELF_CONTACT_CAPACITY", 0)
+    tight, _ = _run(scene, "xpbd", monkeypatch, seconds=0.3, c_api=c_api, self_collision=True)
+    assert tight["counts"][0] > 0 and tight["counts"][1] > 0  # obstacle and self contacts
+    for key in ample:
+        np.testing.assert_array_equal(tight[key], ample[key], err_msg=key)

@@ -8,7 +8,7 @@ import pytest
 from numba.core.caching import CacheImpl
 
 from mjcable import spline
-from mjcable.solvers import _kernel_cache, constraint_kernels, direct_kernels, kernels, query_kernels
+from mjcable.solvers import _kernel_cache, constraint_kernels, direct_kernels, host_kernels, kernels, query_kernels
 
 pytestmark = pytest.mark.skipif(not _kernel_cache.CACHE, reason="kernel caching disabled (numba internals missing)")
 
@@ -30,7 +30,7 @@ def _first_locator(func):
 def test_locators_registered_first_and_used_by_kernel_dispatchers():
     ours = _ours()
     assert len(ours) == 3 and CacheImpl._locator_classes[:3] == ours
-    for dispatcher in (kernels.run_steps_flat, kernels.run_substeps_flat, constraint_kernels.curvature_sweep,
+    for dispatcher in (kernels.run_steps, kernels.substep, host_kernels.host_after, constraint_kernels.curvature_sweep,
                        direct_kernels.direct_solve, query_kernels.proxy_poses):
         assert type(_first_locator(dispatcher.py_func)) in ours
         assert type(dispatcher._cache._impl.locator) in ours  # the dispatcher's own cache
@@ -48,7 +48,7 @@ def test_other_files_keep_numba_locators():
 
 def test_kernel_files_cover_the_split():
     names = {os.path.basename(f) for f in _kernel_cache.kernel_files()}
-    assert {"kernels.py", "constraint_kernels.py", "direct_kernels.py", "kernels_layout.py",
+    assert {"kernels.py", "constraint_kernels.py", "direct_kernels.py", "kernels_layout.py", "host_kernels.py", "monitor_kernels.py",
             "query_kernels.py"} <= names
 
 
@@ -60,7 +60,7 @@ def test_stamp_changes_when_another_kernel_file_changes(tmp_path):
         shutil.copy2(f, tmp_path / os.path.basename(f))
     (tmp_path / "unrelated.py").write_text("X = 1\n")
     cls = next(c for c in _ours() if c.__name__ == "KernelCacheLocator")
-    driver = cls(kernels.run_steps_flat.py_func, str(tmp_path / "kernels.py"))
+    driver = cls(kernels.run_steps.py_func, str(tmp_path / "kernels.py"))
     stamp0 = driver.get_source_stamp()
     assert driver.get_source_stamp() == stamp0  # deterministic
 

@@ -4,6 +4,7 @@ Coulomb friction, socket release; plus their settings, proxy and failure modes."
 import math
 
 import mujoco
+import numba
 import numpy as np
 import pytest
 
@@ -369,18 +370,22 @@ def test_bad_user_constraints_raise():
                           constraints=[UserConstraint(particles=(0, 99), function=lambda p: 0.0)])
 
 
+@numba.njit
+def _poison(S):
+    S.x[4, 2] = np.nan
+
+
 @pytest.mark.parametrize("model", PARTICLE)
 def test_nan_state_raises_simulation_diverged_error(model, monkeypatch):
     sim = mjcable.Simulator(mjcable.scenes.get("hang", n_segments=10), model)
     sim.step(0.01)
-    solve = kernels.run_substeps_flat
+    run = kernels.run_steps
 
-    def faulty(x, *args):  # fault injection: the kernel returns a NaN particle
-        out = solve(x, *args)
-        x[4, 2] = np.nan
-        return False, out[1]
+    def faulty(S, *args):  # fault injection: a NaN particle before the step
+        _poison(S)
+        return run(S, *args)
 
-    monkeypatch.setattr(kernels, "run_substeps_flat", faulty)
+    monkeypatch.setattr(kernels, "run_steps", faulty)
     with pytest.raises(mjcable.SimulationDivergedError, match=rf"{model}.*step 6 .*t = 0.012.*non-finite") as err:
         sim.step()
     assert err.value.model == model and err.value.step == 6

@@ -61,224 +61,114 @@ squeeze the body's explicit contact force alternates between about 0 and 2 W g f
 Gauss-Seidel orders (``pbd``, ``jakobsen``, ``xpbd`` with ``order="gauss-seidel"``) the single sweep then keeps
 only about a quarter of the friction (a strict xfail records it).
 
-Compiled substeps. Without a per-substep callback (PBD's user constraints keep the Python loop), ``substeps`` runs all
-its substeps, MuJoCo's calls included, in one compiled call (:func:`mjcable.solvers.host_kernels.host_substeps`,
-through MuJoCo's C API: :func:`mjcable.solvers.capi.host_functions`), with the Python loop's results bit for bit (the
-reductions they share, n and w_b, are the kernels' :func:`~mjcable.solvers.host_kernels.pin_axis_jacobian` and
-:func:`~mjcable.solvers.host_kernels.dot`). The first step after each reset stays in Python, so that a MuJoCo *error*
-of the starting state (``mju_error``, e.g. an arena too small) is a Python exception: inside the compiled call it
-would end the process (see :mod:`mjcable.solvers.host_kernels`). ``Host.compiled = False`` forces the Python loop.
+The host's substeps run inside the particle solvers' compiled step loop (:mod:`mjcable.solvers.host_kernels`,
+MuJoCo called through its C API: :func:`mjcable.solvers.capi.host_functions`). A MuJoCo *error* inside such a call
+ends the process, so :meth:`Host.reset` steps the world once through the bindings (state restored after): an error of
+the starting state (``mju_error``, e.g. an arena too small) is then a ``mujoco.FatalError``.
 """
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Optional
 
 import mujoco
 import numpy as np
 
 from mjcable.mjcf import world
 from mjcable.scene import Scene
-from mjcable.solvers import capi, contact_kernels, host_kernels, kernels
+from mjcable.solvers import capi
 from mjcable.solvers.contacts import ObstacleContacts
 
 __all__ = ["Host"]
 
 _BAD = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL)
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
-_RIGID = host_kernels.RIGID  # 1/kg: a body point lighter to move than this is held fixed (a body welded to the world)
 
 
 class Host:
-    """Steps the user's world around a particle cable (see the module docstring).
+    """The user's world around a particle cable (see the module docstring): the state's host fields, built once.
 
     Args:
       scene: the scene (with a world).
       mj_model, mj_data: the compiled proxy in the user's world; timestep h.
-      h: the solver's substep in seconds.
-      obstacles: the cable's contacts with the world's geoms (``None``: none); their moving shapes are refreshed
-        after every host step, and those on dynamic bodies get the contacts' reactions.
+      obstacles: the cable's contacts with the world's geoms (``None``: none); those on dynamic bodies get the
+        contacts' reactions.
 
     Attributes:
-      impulse: ``(B, 6)`` the contact impulses of the substep per obstacle row, for ``Contacts.impulse``
-        (:func:`~mjcable.solvers.contact_kernels.collect_impulses`); ``(0, 6)`` where no obstacle is on a dynamic
-        body (the kernels then skip the sums).
       contact_wrench: ``(nbody, 6)`` N, N·m: the last substep's contact force on each body and its moment about the
         body's centre of mass, as applied through ``xfrc_applied``.
+
+    Raises:
+      RuntimeError: MuJoCo's C API is unavailable (:func:`mjcable.solvers.capi.host_unavailable` says why): the host
+        runs only in compiled code.
     """
 
-    two_way_contacts = True  # class switch: False leaves the world's bodies without the contacts' reactions (tests)
-    compiled = True  # class switch: False steps in the Python loop even where the compiled substeps can (tests)
-
-    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, h: float,
+    def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData,
                  obstacles: Optional[ObstacleContacts] = None):
-        self.m, self.d, self.h = mj_model, mj_data, h
-        self.obstacles = obstacles
-        self.gravity = scene.gravity
-        m = mj_model
+        fns = capi.host_functions()
+        if fns is None:
+            raise RuntimeError("the particle solvers step a user world through MuJoCo's C API, which is unavailable "
+                               f"here: {capi.host_unavailable()}; use a native model (springs, joints, flexrod) in a "
+                               "user world")
+        self.m, self.d = mj_model, mj_data
+        m, d = mj_model, mj_data
         pins = [k for k, pin in enumerate(scene.pins) if pin.kind == "body"]
         self.pins = np.array(pins, dtype=np.int64)
         self.particles = np.array([scene.pin_particle(k) for k in pins], dtype=np.int64)
-        self.neighbours = np.array([scene.clamp_neighbour(k) for k in pins], dtype=np.int64)
-        self.bodies = np.array([m.body(scene.pins[k].body).id for k in pins], dtype=np.int64)
         self.sites = np.array([m.site(world.anchor_site(k)).id for k in pins], dtype=np.int64)
+        bodies = np.array([m.body(scene.pins[k].body).id for k in pins], dtype=np.int64)
         clamped = [k for k, pin in enumerate(scene.pins) if pin.clamp]
-        #: (K, 2) [row in the state's clamp arrays, body id] of the body pins' clamps, and (K, 3, 2) the clamps' two
-        #: directions in their bodies' frames (set by reset)
-        self._clamps = np.array([(clamped.index(k), int(self.bodies[j])) for j, k in enumerate(pins)
+        #: (K, 2) [row in the state's clamp arrays, body id] of the body pins' clamps
+        self._clamps = np.array([(clamped.index(k), int(bodies[j])) for j, k in enumerate(pins)
                                  if scene.pins[k].clamp], dtype=np.int64).reshape(-1, 2)
-        self._clamp_local = np.zeros((len(self._clamps), 3, 2))
-        self._saved = np.zeros(mujoco.mj_stateSize(m, _STATE))
-        self._jacp = np.zeros((3, m.nv))
-        self._jn = np.zeros((1, m.nv))
-        self._solved = np.zeros((1, m.nv))
         self.contact_wrench = np.zeros((m.nbody, 6))
-        self.impulse = np.zeros((0, 6))
-        self._rows = self._row_bodies = np.zeros(0, dtype=np.int64)
-        if obstacles is not None and self.two_way_contacts:
+        rows = row_bodies = np.zeros(0, dtype=np.int64)
+        impulse = np.zeros((0, 6))
+        if obstacles is not None:
             body = m.geom_bodyid[obstacles.obstacle_geoms]
             weld = m.body_weldid[body]
             dynamic = (weld != 0) & (m.body_mocapid[weld] < 0)  # not welded to the world nor to a mocap body
-            #: obstacle rows on dynamic bodies, and their bodies
-            self._rows, self._row_bodies = np.flatnonzero(dynamic).astype(np.int64), body[dynamic].astype(np.int64)
-            if len(self._rows):
-                self.impulse = np.zeros((len(body), 6))
-        self._fresh = True  # the first step after a reset runs in Python (see the module docstring)
-        self._compiled_args = self._host_arguments(scene)
+            rows, row_bodies = np.flatnonzero(dynamic).astype(np.int64), body[dynamic].astype(np.int64)
+            if len(rows):
+                impulse = np.zeros((len(body), 6))
+        nstate = mujoco.mj_stateSize(m, _STATE)
+        L = len(pins)
+        self._saved = np.zeros(nstate)
+        #: the state's host fields (kernels_layout.FIELDS) and parameters (kernels_layout.PARAMS)
+        self.fields = dict(
+            link_pin=self.pins, link_particle=self.particles,
+            link_neighbour=np.array([scene.clamp_neighbour(k) for k in pins], dtype=np.int64), link_body=bodies,
+            link_site=self.sites, link_clamp=self._clamps, clamp_local=np.zeros((len(self._clamps), 3, 2)),
+            site_xpos=d.site_xpos, xipos=d.xipos, xmat=d.xmat, xfrc_applied=d.xfrc_applied,
+            warning_number=d.warning.number, bad=np.array([int(w) for w in _BAD], dtype=np.int64),
+            wrench_rows=rows, wrench_bodies=row_bodies, contact_wrench=self.contact_wrench, impulse=impulse,
+            saved=np.zeros(nstate), jacp=np.zeros((3, m.nv)), jn=np.zeros((1, m.nv)), solved=np.zeros((1, m.nv)),
+            p0=np.zeros((L, 3)), arm=np.zeros((L, 3)), free=np.zeros((L, 3)), free_w=np.zeros(L),
+            force=np.zeros((L, 3)), applied=np.zeros((L, 6)))
+        self.params = dict(host=True, fn_step=fns.step, fn_kinematics=fns.kinematics, fn_get_state=fns.get_state,
+                           fn_set_state=fns.set_state, fn_jac=fns.jac, fn_solve_m=fns.solve_m,
+                           model=capi.model_address(m), data=int(d._address), state_sig=int(_STATE), nv=m.nv,
+                           nstate=nstate)
 
-    def reset(self, S: kernels.Chain) -> None:
-        """After the data's reset: the body pins' targets at their points, the clamps' directions in their bodies."""
-        mujoco.mj_forward(self.m, self.d)
-        points = self.d.site_xpos[self.sites]
-        S.pin_from[self.pins] = points
-        S.pin_to[self.pins] = points
-        for k, (row, b) in enumerate(self._clamps):
-            self._clamp_local[k] = self.d.xmat[b].reshape(3, 3).T @ S.clamp_dir[row].T
-        self._fresh = True
-
-    def _host_arguments(self, scene: Scene) -> Optional[tuple]:
-        """:func:`host_kernels.host_substeps`'s arguments after the state, the contacts, n and h (``capi``, links,
-        clamps, gravity, ``mjData`` views, the moving obstacles, the two-way buffers), or ``None`` where MuJoCo's C
-        API is unavailable (:func:`capi.host_functions`)."""
-        fns = capi.host_functions()
-        if fns is None:
-            return None
-        m, d, o = self.m, self.d, self.obstacles
-        c = np.zeros(host_kernels.N_HC, dtype=np.int64)
-        H = host_kernels.HC
-        c[[H["step"], H["kinematics"], H["get_state"], H["set_state"], H["jac"], H["solve_m"], H["model"], H["data"],
-           H["sig"], H["nv"], H["nstate"]]] = (fns.step, fns.kinematics, fns.get_state, fns.set_state, fns.jac,
-                                              fns.solve_m, capi.model_address(m), int(d._address), int(_STATE), m.nv,
-                                              len(self._saved))
-        links = np.zeros((len(self.pins), host_kernels.N_LK), dtype=np.int64)
-        L = host_kernels.LK
-        links[:, [L["pin"], L["particle"], L["neighbour"], L["body"], L["site"]]] = np.stack(
-            [self.pins, self.particles, self.neighbours, self.bodies, self.sites], axis=1).reshape(-1, 5)
-        moving = np.zeros((0, 2), dtype=np.int64)
-        shapes = np.zeros((0, kernels.N_SH))
-        if o is not None:  # the geoms ObstacleContacts.refresh_moving refreshes, and their rows of its shapes
-            g = o.moving_geoms
-            moving = np.stack([g, o.shape_of_geom[g]], axis=1).astype(np.int64).reshape(-1, 2)
-            shapes = o.shapes
-        return (c, links, self._clamps, self._clamp_local, np.array(self.gravity, dtype=np.float64), d.site_xpos,
-                d.xipos, d.xmat, d.xfrc_applied, d.geom_xpos, d.geom_xmat, d.warning.number,
-                np.array([int(w) for w in _BAD], dtype=np.int64), moving, shapes, self.impulse, self._rows,
-                self._row_bodies, self.contact_wrench)
-
-    def _inverse_masses(self, S: kernels.Chain, points: np.ndarray) -> np.ndarray:
-        """(P,) 1/kg: each body's inverse mass at its pin point along the cable (step 1 of the scheme)."""
+    def reset(self, arrays: dict) -> None:
+        """After the data's reset: the body pins' targets at their points, the clamps' directions in their bodies,
+        and one step of the world through the bindings, undone (an error of the starting state raises here)."""
         m, d = self.m, self.d
-        out = np.zeros(len(self.pins))
-        for j in range(len(self.pins)):
-            mujoco.mj_jac(m, d, self._jacp, None, points[j], int(self.bodies[j]))
-            host_kernels.pin_axis_jacobian(S.x, self.particles[j], self.neighbours[j], self._jacp, self._jn[0])
-            mujoco.mj_solveM(m, d, self._solved, self._jn)
-            out[j] = host_kernels.dot(self._jn[0], self._solved[0])
-        return out
-
-    def substeps(self, S: kernels.Chain, C: kernels.Contacts, n: int,
-                 one_substep: Optional[Callable[[], tuple]] = None) -> tuple:
-        """``n`` solver substeps, each with its host ``mj_step`` and each taken by ``one_substep()`` (default: the
-        kernels' own whole substep, the solver stepping at h). Grippers move linearly towards their targets as in
-        the plain path. Returns (finite, sockets released, a divergence reason from MuJoCo's warnings or None).
-
-        Without ``one_substep``, all ``n`` substeps run in one compiled call where MuJoCo's C API is available (but
-        for the first step after a reset), with the same results bit for bit (see the module docstring).
-        """
-        if one_substep is None and self.compiled and not self._fresh and self._compiled_args is not None:
-            finite, released, warning = host_kernels.host_substeps(*S, *C, n, self.h, *self._compiled_args)
-            return finite, released, None if warning < 0 else _reason(warning)
-        self._fresh = False
-        m, d, h = self.m, self.d, self.h
-        start_from, start_to = S.pin_from.copy(), S.pin_to.copy()
-        coupled = len(self.pins) > 0
-        finite, released = True, 0
-        for sub in range(n):
-            target = start_from + ((sub + 1.0) / n) * (start_to - start_from)
-            if coupled:
-                p0 = d.site_xpos[self.sites].copy()
-                arm = p0 - d.xipos[self.bodies]
-                w_b = self._inverse_masses(S, p0)
-                mujoco.mj_getState(m, d, self._saved, _STATE)
-                mujoco.mj_step(m, d)
-                mujoco.mj_kinematics(m, d)
-                free = d.site_xpos[self.sites].copy()
-                for k, (row, b) in enumerate(self._clamps):
-                    host_kernels.turn_clamp(d.xmat, b, self._clamp_local[k], S.clamp_dir, row)
-                mujoco.mj_setState(m, d, self._saved, _STATE)
-                target[self.pins] = free
-                free_w = np.where(w_b > _RIGID, w_b, 0.0)
-                S.w[self.particles] = free_w
-            S.pin_to[:] = target
-            two_way = len(self.impulse) > 0
-            if two_way:
-                self.impulse[:] = 0.0
-            if one_substep is not None:
-                ok, count = one_substep()
-            else:
-                ok, count = kernels.run_substeps_flat(*S, *C, 1, kernels.PHASE_ALL, 0)
-            finite = finite and ok
-            released += count
-            if coupled:
-                moving = free_w > 0.0
-                f = np.zeros_like(free)
-                f[moving] = (S.x[self.particles[moving]] - free[moving]) / (free_w[moving, None] * h * h)
-                f[moving] += S.mass[self.particles[moving], None] * self.gravity
-                f[~moving] = -S.pin_force[self.pins[~moving]]
-                # the kernel counted −m g for a moving pin (its particle was free): its step sum takes −f instead
-                held = self.pins[moving]
-                S.pin_sum[held, kernels.PS_F:kernels.PS_F + 3] += -f[moving] - S.pin_force[held]
-                S.pin_force[held] = -f[moving]
-                applied = np.zeros((len(self.pins), 6))
-                applied[:, :3] = f
-                applied[:, 3:] = np.cross(arm, f)
-                np.add.at(d.xfrc_applied, self.bodies, applied)
-            if two_way:  # −Σ j / h² on each dynamic body, with its moment about the body's centre of mass
-                contact_kernels.body_wrenches(self.impulse, self._rows, self._row_bodies, d.xipos, -1.0 / (h * h),
-                                              self.contact_wrench, d.xfrc_applied)
-            mujoco.mj_step(m, d)
-            if coupled:
-                np.subtract.at(d.xfrc_applied, self.bodies, applied)
-            if two_way:
-                d.xfrc_applied -= self.contact_wrench
-            mujoco.mj_kinematics(m, d)
-            if self.obstacles is not None:
-                self.obstacles.refresh_moving()
-            if coupled:
-                p1 = d.site_xpos[self.sites]
-                S.x[self.particles] = p1
-                S.v[self.particles] = (p1 - p0) / h
-            counts = d.warning.number
-            bad = [int(w) for w in _BAD if counts[w] > 0]
-            if bad:
-                counts[bad] = 0
-                return finite, released, _reason(bad[0])
-        S.pin_to[:] = start_to
-        if coupled:
-            S.pin_to[self.pins] = d.site_xpos[self.sites]
-        return finite, released, None
+        mujoco.mj_forward(m, d)
+        points = d.site_xpos[self.sites]
+        arrays["pin_from"][self.pins] = points
+        arrays["pin_to"][self.pins] = points
+        local = arrays["clamp_local"]
+        for k, (row, b) in enumerate(self._clamps):
+            local[k] = d.xmat[b].reshape(3, 3).T @ arrays["clamp_dir"][row].T
+        warnings = d.warning.number.copy()
+        mujoco.mj_getState(m, d, self._saved, _STATE)
+        mujoco.mj_step(m, d)
+        mujoco.mj_setState(m, d, self._saved, _STATE)
+        d.warning.number[:] = warnings
+        mujoco.mj_forward(m, d)
 
 
-def _reason(warning: int) -> str:
+def reason(warning: int) -> str:
     """The divergence reason of MuJoCo's warning code ``warning``."""
     return f"MuJoCo's warning {mujoco.mjtWarning(warning).name} in the user world"

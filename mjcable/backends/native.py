@@ -21,9 +21,11 @@ from typing import Callable, Optional
 import mujoco
 import numpy as np
 
+from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, RunResult, check_failure
 from mjcable.mjcf import world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
+from mjcable.solvers.monitor_kernels import step_check
 
 __all__ = ["NativeBackend", "spec_builder", "DIVERGENCE_WARNINGS"]
 
@@ -102,7 +104,40 @@ class NativeBackend:
         self._gripper_from = {}
         self._refresh()
 
-    def step(self) -> Optional[str]:
+    def run(self, count: int, *, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
+            path: Optional[tuple] = None, until_release: bool = False) -> RunResult:
+        """:meth:`mjcable.backends.protocol.Backend.run`: a loop of :meth:`_step`, each followed by the divergence
+        checks (:func:`~mjcable.solvers.monitor_kernels.step_check` on the particle sites; MuJoCo's own state is
+        watched by its warnings, so the sites stand for the velocities too)."""
+        pins, targets = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3))) if path is None else path
+        moved = np.zeros(targets.shape[:2], dtype=bool)  # (steps, G): whether a gripper's row differs from its last
+        if len(targets):
+            now = self.mj_data.mocap_pos[[self._mocap_of_pin[int(k)] for k in pins]]
+            np.any(targets[:1] != now, axis=2, out=moved[:1])
+            np.any(targets[1:] != targets[:-1], axis=2, out=moved[1:])
+        released = len(self.released) if until_release else 0
+        stored = 0
+        x = self.positions()
+        for i in range(count):
+            if i < len(targets):
+                for g in np.flatnonzero(moved[i]).tolist():
+                    self.move_gripper(int(pins[g]), targets[i, g])
+            previous = x
+            reason = self._step()
+            x = self.positions()
+            if reason is None:
+                reason = check_failure(*step_check(x, x, previous, self.dt, MAX_DISTANCE, MAX_SPEED))
+            if stored < len(rows) and rows[stored] == i + 1:
+                out_x[stored], out_v[stored] = x, self.velocities()
+                stored += 1
+            if reason is not None:
+                return RunResult(i + 1, stored, reason)
+            if until_release and len(self.released) != released:
+                return RunResult(i + 1, stored)
+        return RunResult(count, stored)
+
+    def _step(self) -> Optional[str]:
+        """One ``dt``: ``substeps`` ``mj_step`` calls. Returns why MuJoCo diverged (its warnings), else ``None``."""
         m, d = self.mj_model, self.mj_data
         if self._gripper_from and self.substeps > 1:
             # A moved gripper travels linearly over the substeps, as the particle backend's pins do: a jump at the

@@ -7,12 +7,45 @@ see a backend at all. :mod:`mjcable.backends.native` (MuJoCo's own cable models,
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Optional, Protocol, runtime_checkable
 
 import mujoco
 import numpy as np
 
-__all__ = ["Backend"]
+from mjcable.solvers.monitor_kernels import CHECK_DISTANCE, CHECK_NON_FINITE, CHECK_SPEED
+
+__all__ = ["Backend", "RunResult", "check_failure", "MAX_SPEED", "MAX_DISTANCE"]
+
+MAX_SPEED = 200.0  # m/s: a cable particle faster than this has diverged
+MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
+
+
+@dataclasses.dataclass(frozen=True)
+class RunResult:
+    """What :meth:`Backend.run` did.
+
+    Attributes:
+      steps: steps taken (all asked for, unless a failure or a release stopped the run).
+      recorded: rows of ``out_x``/``out_v`` written.
+      failure: why the last step diverged (a failed check, a MuJoCo warning, NaNs), else ``None``.
+    """
+
+    steps: int
+    recorded: int
+    failure: Optional[str] = None
+
+
+def check_failure(check: int, value: float) -> Optional[str]:
+    """The divergence reason of :func:`mjcable.solvers.monitor_kernels.step_check`'s ``(check, value)``, or
+    ``None`` for a step that passed."""
+    if check == CHECK_NON_FINITE:
+        return "non-finite particle state (NaN or inf)"
+    if check == CHECK_DISTANCE:
+        return f"a particle ran off beyond {MAX_DISTANCE:g} m"
+    if check == CHECK_SPEED:
+        return f"a particle moved at {value:.3g} m/s (limit {MAX_SPEED:g} m/s)"
+    return None
 
 
 @runtime_checkable
@@ -28,8 +61,21 @@ class Backend(Protocol):
     mj_model: mujoco.MjModel
     mj_data: mujoco.MjData
 
-    def step(self) -> Optional[str]:
-        """Advance exactly one ``dt``. Returns why the state diverged (a MuJoCo warning, NaNs), else ``None``."""
+    def run(self, count: int, *, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
+            path: Optional[tuple] = None, until_release: bool = False) -> RunResult:
+        """Take up to ``count`` steps of ``dt``, each checked (:func:`mjcable.solvers.monitor_kernels.step_check`
+        against :data:`MAX_DISTANCE` and :data:`MAX_SPEED`, and the model's own divergence signs), stopping after
+        the first that fails.
+
+        Args:
+          count: steps to take (>= 1).
+          rows: ``(R,)`` ascending step numbers (1..count) after which to record the state, into ``out_x`` and
+            ``out_v`` ``(R, n_segments + 1, 3)`` (m, m/s).
+          path: ``(pins, targets)`` or ``None``: before step ``k`` the gripper of ``scene.pins[pins[g]]`` (``pins``
+            (G,) int64) moves to ``targets[k, g]`` (``(count, G, 3)`` m, C-contiguous), as :meth:`move_gripper` (a
+            gripper sent where it already is stays where it is, bit for bit).
+          until_release: also stop after a step in which a socket let go.
+        """
 
     def reset(self) -> None:
         """Return to the start state bit for bit (added point masses stay)."""

@@ -28,8 +28,9 @@ Module map: :mod:`~mjcable.solvers.settings` (the settings dataclasses), :mod:`~
 :mod:`~mjcable.solvers.kernels` (the substep and step drivers; it re-exports the projections they call:
 :mod:`~mjcable.solvers.constraint_kernels`, the sweeps citing paper and equation,
 :mod:`~mjcable.solvers.contact_kernels`, obstacle shapes, contacts and Coulomb friction with anchors,
-:mod:`~mjcable.solvers.direct_kernels`, the direct order, and :mod:`~mjcable.solvers.kernels_layout`, indices and
-named tuples; their numba cache is stamped with all kernel files, :mod:`~mjcable.solvers._kernel_cache`),
+:mod:`~mjcable.solvers.direct_kernels`, the direct order, :mod:`~mjcable.solvers.host_kernels`, a user world's
+host, :mod:`~mjcable.solvers.monitor_kernels`, the divergence checks, and :mod:`~mjcable.solvers.kernels_layout`,
+the packed solver state and its parameter record; their numba cache is stamped with all kernel files, :mod:`~mjcable.solvers._kernel_cache`),
 :mod:`~mjcable.solvers.query_kernels` (contact queries and proxy poses, from Python and from the step loop),
 :mod:`~mjcable.solvers.capi` (MuJoCo's C API for the step loop: entry points and checked struct layout),
 :mod:`~mjcable.solvers.contacts` (``mj_collision`` queries), :mod:`~mjcable.solvers.jakobsen`,

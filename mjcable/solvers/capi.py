@@ -1,6 +1,6 @@
 """MuJoCo's C API for the particle solvers' compiled step loop: ``mj_kinematics`` and ``mj_collision`` called from numba.
 
-The step driver (:func:`mjcable.solvers.kernels.run_steps_flat`) queries contacts between steps without returning to
+The step driver (:func:`mjcable.solvers.kernels.run_steps`) queries contacts between steps without returning to
 Python: it poses the proxy capsules, calls ``mj_kinematics`` and ``mj_collision`` on the proxy's ``mjModel`` and
 ``mjData`` through their C entry points, and reads ``ncon`` and the contact array out of ``mjData``'s memory. This
 module finds what that needs, once per process:
@@ -19,8 +19,9 @@ module finds what that needs, once per process:
 A MuJoCo *error* (``mju_error``) inside a call made by address ends the process: MuJoCo's default handler runs, not
 the bindings' (which turn errors into ``mujoco.FatalError`` around their own calls only). The callers keep a first
 call through the bindings after each start or reset (:func:`mjcable.solvers.query_kernels.query_obstacles`,
-:mod:`mjcable.solvers.host_kernels`). Where the layout is unavailable, the particle backend queries in Python (``mujoco.mj_collision`` and the bindings'
-contact views), with identical results (``tests/test_capi.py``). The numba side, the calls and the reads, is
+:mod:`mjcable.solvers.host_kernels`). Where the layout is unavailable, the particle backend queries in Python
+(``mujoco.mj_collision`` and the bindings' contact views), with identical results (``tests/test_capi.py``); a user
+world's host has no such fallback (:class:`mjcable.backends.host.Host` says why it can't run). The numba side, the calls and the reads, is
 :func:`mjcable.solvers.query_kernels.query_obstacles`.
 """
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import _F_INV_L0SQ, _I_BEND, _TINY_LENGTH, BEND_CURVATURE, BEND_DISTANCE
+from mjcable.solvers.kernels_layout import _TINY_LENGTH, BEND_CURVATURE, BEND_DISTANCE
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -188,12 +188,13 @@ def clamp_sweep(x, out, w, react, clamp_pq, clamp_pin, pin_active, clamp_dir, sc
 @_jit
 def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c):
     """Bending and clamp sweeps, corrections into ``out``."""
-    x, w, react, fp = S.x, S.w, S.react, S.fp
-    bending = S.ip[_I_BEND]
+    x, w, react = S.x, S.w, S.react
+    P = S.par[0]
+    bending, inv_l0sq = P.bending, P.inv_l0sq
     if bending == BEND_CURVATURE:
-        curvature_sweep(x, out, w, react, fp[_F_INV_L0SQ], at_b, S.lam_b, k_b)
+        curvature_sweep(x, out, w, react, inv_l0sq, at_b, S.lam_b, k_b)
     elif bending == BEND_DISTANCE:
         stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False)
     if S.clamp_pq.shape[0]:
-        clamp_sweep(x, out, w, react, S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir, 2.0 * fp[_F_INV_L0SQ],
+        clamp_sweep(x, out, w, react, S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir, 2.0 * inv_l0sq,
                     at_c, S.lam_c, k_c)

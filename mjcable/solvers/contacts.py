@@ -1,7 +1,9 @@
 """Contacts of the particle cable with the MuJoCo scene, through MuJoCo's own collision pipeline.
 
 Once per step the proxy capsules (one per segment, posed from the particles) go through ``mj_collision`` with a
-margin that covers the distance the cable can travel in one step; each contact becomes a constraint on the
+margin that covers the distance the cable can travel in one step (in the compiled step loop, through MuJoCo's C
+API: :func:`mjcable.solvers.query_kernels.query_obstacles`; through the bindings where that is unavailable:
+:meth:`ObstacleContacts.query`); each contact becomes a constraint on the
 segment's axis point at fraction s, measured against the obstacle's shape (type, size and pose, one row of
 ``Contacts.shapes`` per obstacle) in every substep and iteration, with Coulomb friction against anchors that
 persist across steps (:mod:`mjcable.solvers.contact_kernels`). While the cable's bounding box touches no
@@ -19,11 +21,9 @@ import mujoco
 import numpy as np
 
 from mjcable.scene import Scene
-from mjcable.solvers import kernels, query_kernels
+from mjcable.solvers import kernels_layout as layout, query_kernels
 
 __all__ = ["ObstacleContacts"]
-
-_PAIRS_OFF = -1e10  # m: a pair margin no pair of geoms is closer than
 
 
 class ObstacleContacts:
@@ -63,12 +63,11 @@ class ObstacleContacts:
         body = mj_model.geom_bodyid[g]
         #: (M,) the geoms of obstacles on bodies that move (their shapes' poses are refreshed by every query)
         self.moving_geoms = g[(mj_model.body_weldid[body] != 0) | (mj_model.body_mocapid[body] >= 0)]
-        #: (B, kernels.N_SH): each obstacle's MuJoCo type, size, world position and rotation
-        self.shapes = np.zeros((len(g), kernels.N_SH))
-        self.shapes[:, kernels.SH_TYPE] = mj_model.geom_type[g]
-        self.shapes[:, kernels.SH_SIZE:kernels.SH_SIZE + 3] = mj_model.geom_size[g]
+        #: (B, layout.N_SH): each obstacle's MuJoCo type, size, world position and rotation
+        self.shapes = np.zeros((len(g), layout.N_SH))
+        self.shapes[:, layout.SH_TYPE] = mj_model.geom_type[g]
+        self.shapes[:, layout.SH_SIZE:layout.SH_SIZE + 3] = mj_model.geom_size[g]
         self._refresh_shapes(g)
-        self._margin = None
         # Static obstacles: world bounding boxes, planes as half-spaces (normal, point); with a moving obstacle the
         # bounds cover all space (every step queries).
         planes = mj_model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE
@@ -82,38 +81,27 @@ class ObstacleContacts:
         if len(self.moving_geoms):
             half[:] = np.inf
         self._box_lo, self._box_hi = np.ascontiguousarray(center - half), np.ascontiguousarray(center + half)
-        self._seg = np.zeros(0, dtype=np.int64)
-        self._geo = np.zeros((0, 7))
-        self._lam = np.zeros(0)
-        self.reserve(4 * len(segment_geoms))  # a cable lying on a face: about one contact per particle
 
     @property
     def moving(self) -> bool:
         """Whether any obstacle moves (its shape is refreshed from ``mj_data`` by every query)."""
         return len(self.moving_geoms) > 0
 
-    @property
-    def buffers(self) -> tuple:
-        """The query's output buffers (segment (cap,), geometry (cap, 7), multipliers (cap,)), for a compiled loop
-        that fills them itself (:func:`mjcable.solvers.kernels.run_steps_flat`); :meth:`reserve` replaces them."""
-        return self._seg, self._geo, self._lam
-
-    def reserve(self, capacity: int) -> None:
-        """Grow the output buffers to hold at least ``capacity`` contacts (to twice that, when they must grow)."""
-        if capacity > len(self._seg):
-            self._seg = np.zeros(2 * capacity, dtype=np.int64)
-            self._geo = np.zeros((2 * capacity, 7))
-            self._lam = np.zeros(2 * capacity)
-
-    def forget_margin(self) -> None:
-        """Write the pairs' margin at the next :meth:`query` (a compiled loop has set them behind this object)."""
-        self._margin = None
+    def arrays(self) -> dict:
+        """The state's fields of the contact query (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the obstacles'
+        shapes, bounds and geom maps, the proxy's pair margins and the geoms' poses (views of the model and data)."""
+        m, d = self.mj_model, self.mj_data
+        g = self.moving_geoms
+        moving = np.stack([g, self.shape_of_geom[g]], axis=1).astype(np.int64).reshape(-1, 2)
+        return dict(shapes=self.shapes, box_lo=self._box_lo, box_hi=self._box_hi, plane_n=self._plane_n,
+                    plane_p=self._plane_p, pair_margin=m.pair_margin, segment_of_geom=self.segment_of_geom,
+                    shape_of_geom=self.shape_of_geom, geom_friction=self.friction, moving=moving,
+                    geom_xpos=d.geom_xpos, geom_xmat=d.geom_xmat)
 
     def disable(self) -> None:
         """Switch the cable's pairs off (an impossible margin) so that a host ``mj_step`` never sees the proxy; the
-        next :meth:`query` switches them back on."""
-        self.mj_model.pair_margin[self.pairs] = _PAIRS_OFF
-        self._margin = None
+        next query switches them back on."""
+        self.mj_model.pair_margin[self.pairs] = layout.PAIRS_OFF
 
     def refresh_moving(self) -> None:
         """The moving obstacles' shapes from ``mj_data``'s current geom poses (a user world's host calls it after
@@ -124,38 +112,22 @@ class ObstacleContacts:
     def _refresh_shapes(self, geoms: np.ndarray) -> None:
         d = self.mj_data
         rows = self.shape_of_geom[geoms]
-        self.shapes[rows, kernels.SH_POS:kernels.SH_POS + 3] = d.geom_xpos[geoms]
-        self.shapes[rows, kernels.SH_ROT:kernels.SH_ROT + 9] = d.geom_xmat[geoms]
+        self.shapes[rows, layout.SH_POS:layout.SH_POS + 3] = d.geom_xpos[geoms]
+        self.shapes[rows, layout.SH_ROT:layout.SH_ROT + 9] = d.geom_xmat[geoms]
 
-    @property
-    def bounds(self) -> tuple:
-        """The static obstacles as :meth:`touching` tests them: world boxes (lo, hi (B, 3)) and planes (unit normal,
-        point (F, 3)), for a compiled step loop that must test exactly the same."""
-        return self._box_lo, self._box_hi, self._plane_n, self._plane_p
-
-    def touching(self, x: np.ndarray, reach: float) -> bool:
-        """Whether the bounding box of particles ``x`` (n, 3), grown by ``reach`` metres, touches any obstacle's."""
-        return kernels.touches_obstacles(x, reach, self._box_lo, self._box_hi, self._plane_n, self._plane_p)
-
-    def query(self, x: np.ndarray, margin: float, out: kernels.Contacts) -> kernels.Contacts:
-        """Contacts of the proxy capsules (posed from ``x`` (n + 1, 3) beforehand) closer than ``margin`` metres.
-
-        Returns:
-          ``out`` with its obstacle-contact arrays replaced by views of this query's buffers: segment (C,),
-          [s, n, offset, μ, shape row] (C, 7), multipliers (C,), and the obstacles' shapes.
-        """
+    def query(self, S, x: np.ndarray, margin: float) -> int:
+        """The query of :func:`~mjcable.solvers.query_kernels.query_obstacles` through the bindings
+        (``mujoco.mj_collision``), with the proxy posed from the state's particles beforehand: the contacts closer
+        than ``margin`` metres (particles ``x`` (N, 3) m, the state's) into the state ``S``'s buffers (grown to hold them). Returns their number."""
         m, d = self.mj_model, self.mj_data
-        if margin != self._margin:
-            m.pair_margin[self.pairs] = margin
-            self._margin = margin
+        m.pair_margin[self.pairs] = margin
         self.refresh_moving()
         mujoco.mj_collision(m, d)
         ncon = d.ncon
-        self.reserve(ncon)
-        count = 0
-        if ncon:
-            con = d.contact
-            count = query_kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
-                                                       self.shape_of_geom, self.friction, x, self.radius, self._seg,
-                                                       self._geo)
-        return out._replace(seg=self._seg[:count], geo=self._geo[:count], lam=self._lam[:count], shapes=self.shapes)
+        query_kernels.reserve_contacts(S, ncon)
+        if not ncon:
+            return 0
+        seg, geo = layout.contact_buffers(S)[:2]
+        con = d.contact
+        return query_kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
+                                                  self.shape_of_geom, self.friction, x, self.radius, seg, geo)

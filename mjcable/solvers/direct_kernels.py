@@ -9,8 +9,8 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.constraint_kernels import _bend_clamp_sweeps, stretch_sweep
-from mjcable.solvers.kernels_layout import (_F_INV_L0SQ, _I_BEND, _I_BW, _I_DIRECT_ALL, _I_SQRT, _TINY_LENGTH,
-                                            BEND_DISTANCE, BEND_NONE, ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH)
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, BEND_DISTANCE, BEND_NONE, ROW_CURVATURE, ROW_DISTANCE,
+                                            ROW_STRETCH)
 
 # Relative compliance added to every row of the direct solve: it keeps hard, redundant rows (e.g. inextensible
 # stretch with hard curvature bending: more rows than degrees of freedom) solvable and is far below any physical one.
@@ -72,7 +72,7 @@ def _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t):
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
     rest, rest_d = S.rest, S.rest_d
     clamp_dir, clamp_pin, pin_active = S.clamp_dir, S.clamp_pin, S.pin_active
-    inv_l0sq = S.fp[_F_INV_L0SQ]
+    inv_l0sq = S.par[0].inv_l0sq
     nrow = rhs.shape[0]
     band[:] = 0.0
     grad[:] = 0.0
@@ -213,7 +213,7 @@ def _direct_within(S, alpha_s_t, alpha_b_t, tol):
     |C + α̃ λ| / rest ≤ tol."""
     if not _distance_rows_within(S.x, S.rest, 1, alpha_s_t, S.lam_s, tol):
         return False
-    if S.ip[_I_DIRECT_ALL] and S.ip[_I_BEND] == BEND_DISTANCE:
+    if S.par[0].direct_all and S.par[0].bending == BEND_DISTANCE:
         return _distance_rows_within(S.x, S.rest_d, 2, alpha_b_t, S.lam_d, tol)
     return True
 
@@ -248,7 +248,7 @@ def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
       constraint, as ``order="gauss-seidel"``): each projection solves its own constraint exactly, without overshoot.
     """
     rho0 = _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t)
-    banded_ldlt_solve(S.band, S.rhs, S.ip[_I_BW])
+    banded_ldlt_solve(S.band, S.rhs, S.par[0].bandwidth)
     _direct_apply(S, k_s, k_b, k_c)
     tol = max(_DIRECT_RESIDUAL_FLOOR, (1.0 - k_s * (1.0 - _DIRECT_CONTRACTION)) * rho0)
     if not _direct_within(S, alpha_s_t, alpha_b_t, tol):
@@ -262,12 +262,12 @@ def _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0,
     is still above ρ₀, one Gauss-Seidel sweep of the same rows ([M16] Eq. 18 per constraint)."""
     for _ in range(_DIRECT_MAX_SOLVES - 1):
         _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t)
-        banded_ldlt_solve(S.band, S.rhs, S.ip[_I_BW])
+        banded_ldlt_solve(S.band, S.rhs, S.par[0].bandwidth)
         _direct_apply(S, k_s, k_b, k_c)
         if _direct_within(S, alpha_s_t, alpha_b_t, tol):
             return
     if not _direct_within(S, alpha_s_t, alpha_b_t, rho0):  # Newton diverging: project the rows one by one
         x = S.x
-        stretch_sweep(x, x, S.w, S.react, S.rest, 1, alpha_s_t, S.lam_s, k_s, S.ip[_I_SQRT] != 0)
-        if S.ip[_I_DIRECT_ALL] and (S.ip[_I_BEND] != BEND_NONE or S.clamp_pq.shape[0] > 0):
+        stretch_sweep(x, x, S.w, S.react, S.rest, 1, alpha_s_t, S.lam_s, k_s, S.par[0].sqrt_approx)
+        if S.par[0].direct_all and (S.par[0].bending != BEND_NONE or S.clamp_pq.shape[0] > 0):
             _bend_clamp_sweeps(S, x, alpha_b_t, alpha_c_t, k_b, k_c)

@@ -1,72 +1,50 @@
-"""A user world's host substeps in compiled code: :meth:`mjcable.backends.host.Host.substeps` (read its module
-docstring for the coupling scheme) with every MuJoCo call made through MuJoCo's C API, ``n`` substeps per call and no
-Python between them.
+"""A user world's host in compiled code: the coupling of :mod:`mjcable.backends.host` (read its module docstring for
+the scheme) with every MuJoCo call made through MuJoCo's C API, in pieces that the step loop
+(:func:`mjcable.solvers.kernels.run_steps`) calls around each solver substep: :func:`host_begin_step`,
+:func:`host_before`, the solver's substep, :func:`host_after`, ..., :func:`host_end_step`.
 
-Per substep, as the Python host and in its order (h the substep, P the body pins, p0 / p1 a pin's body point before
-and after the host's step, b_free its trial position):
+Per substep (h the substep, P the body pins, p0 / p1 a pin's body point before and after the host's step, b_free
+its trial position):
 
 1. pin targets x_to = from + ((k + 1) / n) (to − from) (grippers move linearly);
 2. per body pin: ``mj_jac`` at p0, n = (x_q − x_p) / max(|x_q − x_p|, 1e-12) (q the neighbour), jn = nᵀ J,
    ``mj_solveM`` → w_b = jn · M⁻¹ jnᵀ (:func:`pin_axis_jacobian`, :func:`dot`); the trial step ``mj_getState``,
    ``mj_step``, ``mj_kinematics``, read b_free and turn the clamps' body-frame directions (:func:`turn_clamp`),
    ``mj_setState``; the particle predicted at b_free with inverse mass w_b (0 where w_b ≤ ``RIGID``);
-3. the solver's substep (:func:`mjcable.solvers.kernels.run_substeps_flat`, one whole substep: called, not inlined,
-   so that its compiled code, cached, serves here too; its integer arguments are passed as ``np.int64`` values, not
-   literals, which numba would type ``Literal[int]`` and compile the whole driver a second time for, about 40 s);
+3. the solver's substep (one whole substep, the pins at this substep's targets);
 4. F = (x_p − b_free) / (w_b h h) + m_p g on each moving pin (−pin_force on a rigid one), added with its moment
    (p0 − xipos) × F to ``xfrc_applied``; the contacts' −Σ j / h² on the world's dynamic bodies
    (:func:`mjcable.solvers.contact_kernels.body_wrenches`); ``mj_step``; both taken off ``xfrc_applied`` again;
    ``mj_kinematics``; the moving obstacles' shapes from ``geom_xpos``/``geom_xmat``; x_p = p1, v_p = (p1 − p0) / h;
 5. MuJoCo's divergence warnings (``BADQACC``, ``BADQPOS``, ``BADQVEL``: their counts in ``mjData.warning``, read
-   through the bindings' numpy view) end the call at that substep, their counts zeroed, as the Python host does.
-
-Every floating-point operation is the Python host's, in its order (no fused multiply-adds: numba emits none without
-``fastmath``), and the reductions the two share are these kernels (the Python host calls them too), so that both
-paths give the same results bit for bit (``tests/test_host_compiled.py``).
+   through the bindings' numpy view) stop the step at that substep, their counts zeroed.
 
 MuJoCo's C functions are called by address (:func:`mjcable.solvers.capi.host_functions`: the ``libmujoco`` the
 bindings loaded), one small intrinsic per C signature; addresses are runtime integers, so the compiled code caches.
-
-Caveat: MuJoCo's *warnings* inside these calls are fine (they print through MuJoCo's handler and count in
-``mjData.warning``), but a MuJoCo *error* (``mju_error``, e.g. the arena running out of memory) cannot become a Python
-exception here: the bindings turn errors into exceptions only around their own calls, so a call by address meets
-MuJoCo's default handler, which prints the error and ends the process (measured). The host therefore takes the first step after each reset in Python (an error of the starting
-state, such as a model whose arena is too small, is then the bindings' ``mujoco.FatalError``); an error that only
-a later state meets is not guarded.
+MuJoCo's *warnings* inside these calls are fine (they print through MuJoCo's handler and count in
+``mjData.warning``), but a MuJoCo *error* (``mju_error``, e.g. the arena running out of memory) ends the process: the
+bindings turn errors into exceptions only around their own calls. The backend therefore steps the world once through
+the bindings at construction and reset (state restored after), so that an error of the starting state is the
+bindings' ``mujoco.FatalError``; an error that only a later state meets is not guarded.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
 from mjcable.solvers import contact_kernels
-from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
-from mjcable.solvers.kernels import PHASE_ALL, PS_F, SH_POS, SH_ROT, run_substeps_flat
-from mjcable.solvers.query_kernels import _call_model_data
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.query_kernels import _call_model_data, refresh_moving
 
-__all__ = ["host_substeps", "pin_axis_jacobian", "dot", "turn_clamp", "RIGID", "HC", "N_HC", "LK", "N_LK"]
+__all__ = ["host_begin_step", "host_before", "host_after", "host_end_step", "pin_axis_jacobian", "dot", "turn_clamp",
+           "RIGID"]
 
 RIGID = 1e-12  # 1/kg: a body point lighter to move than this is held fixed (a body welded to the world)
 _TINY_AXIS = 1e-12  # m: the pin-to-neighbour distance below which the axis is not normalised further
-
-# Entries of host_substeps' ``capi`` (int64): the addresses of mj_step, mj_kinematics, mj_getState, mj_setState,
-# mj_jac, mj_solveM (mjcable.solvers.capi.HostFunctions), of the world's mjModel and mjData, the state signature
-# (mjSTATE_INTEGRATION), nv and the state's size (mj_stateSize).
-HC = dict(step=0, kinematics=1, get_state=2, set_state=3, jac=4, solve_m=5, model=6, data=7, sig=8, nv=9, nstate=10)
-(_HC_STEP, _HC_KINEMATICS, _HC_GET_STATE, _HC_SET_STATE, _HC_JAC, _HC_SOLVE_M, _HC_MODEL, _HC_DATA, _HC_SIG, _HC_NV,
- _HC_NSTATE) = range(11)
-N_HC = len(HC)
-# Columns of host_substeps' ``links`` (P, 5) int64, per body pin: the pin's index, its particle, the particle's
-# neighbour along the cable, the body and the anchor site.
-LK = dict(pin=0, particle=1, neighbour=2, body=3, site=4)
-_LK_PIN, _LK_PARTICLE, _LK_NEIGHBOUR, _LK_BODY, _LK_SITE = range(5)
-N_LK = len(LK)
-
 
 # -- MuJoCo's C functions by address, one intrinsic per signature --------------------------------------------------
 
@@ -177,175 +155,155 @@ def turn_clamp(xmat, body, local, clamp_dir, row):
                                     + xmat[body, 3 * i + 2] * local[2, k])
 
 
-# -- the driver ------------------------------------------------------------------------------------------------------
+# -- the host's pieces of a step (kernels.run_steps calls them around each solver substep) ----------------------
 
 
 @_inline
-def _mj_step(capi):
-    _call_model_data(capi[_HC_STEP], capi[_HC_MODEL], capi[_HC_DATA])
+def _mj_step(P):
+    _call_model_data(P.fn_step, P.model, P.data)
 
 
 @_inline
-def _mj_kinematics(capi):
-    _call_model_data(capi[_HC_KINEMATICS], capi[_HC_MODEL], capi[_HC_DATA])
+def _mj_kinematics(P):
+    _call_model_data(P.fn_kinematics, P.model, P.data)
 
 
-@_nogil
-def host_substeps(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-                  clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum,
-                  row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo,
-                  lam, pair, sgeo, slam, shapes, impulse, n, h, capi, links, clamps, clamp_local, gravity,
-                  site_xpos, xipos, xmat, xfrc_applied, geom_xpos, geom_xmat, warning_number, bad, moving,
-                  obstacle_shapes, host_impulse, wrench_obstacles, wrench_bodies, contact_wrench):
-    """``n`` host substeps of ``h`` seconds (see the module docstring) on the solver state and contacts
-    (``*chain, *contacts`` as :func:`mjcable.solvers.kernels.run_substeps_flat`) and the user world.
+@_jit
+def host_begin_step(S):
+    """A step's start: the pins' targets at the step's start and end (``start_from``, ``start_to``), from which
+    every substep's are interpolated."""
+    S.start_from[:, :] = S.pin_from
+    S.start_to[:, :] = S.pin_to
 
-    Args:
-      n, h: substeps and the substep (s).
-      capi: (N_HC,) int64, the C entry points, model and data (``HC``).
-      links: (P, N_LK) int64, the body pins (``LK``).
-      clamps, clamp_local: (K, 2) int64 [row of ``clamp_dir``, body] and (K, 3, 2) the clamps' directions in their
-        bodies' frames.
-      gravity: (3,) m/s².
-      site_xpos, xipos, xmat, xfrc_applied, geom_xpos, geom_xmat, warning_number: the world's ``mjData`` views
-        (``warning_number`` is ``mjData.warning.number``).
-      bad: (W,) int64, the warnings that end the call (``mjtWarning`` codes, first reported first).
-      moving: (G, 2) int64 [geom, row of ``obstacle_shapes``] of the obstacles on moving bodies.
-      obstacle_shapes: (B, N_SH) the obstacles' shapes to refresh (the contacts' ``shapes``).
-      host_impulse: (B, 6) or (0, 6) the contacts' impulses summed per substep (``impulse``; empty: no two-way
-        contacts).
-      wrench_obstacles, wrench_bodies, contact_wrench: (R,) int64 the obstacle rows on dynamic bodies and their
-        bodies, and (nbody, 6) the last substep's contact wrench per body (N, N·m).
 
-    Returns:
-      (all positions and velocities finite, sockets released, the first ``bad`` warning that MuJoCo counted, or −1).
-    """
-    npin = links.shape[0]
-    nv = capi[_HC_NV]
-    start_from, start_to = pin_from.copy(), pin_to.copy()
-    target = np.empty_like(start_from)
-    p0 = np.empty((npin, 3))
-    arm = np.empty((npin, 3))
-    free = np.empty((npin, 3))
-    free_w = np.empty(npin)
-    f = np.empty((npin, 3))
-    applied = np.empty((npin, 6))
-    saved = np.empty(capi[_HC_NSTATE])
-    jacp = np.empty((3, nv))
-    jn = np.empty((1, nv))
-    solved = np.empty((1, nv))
-    coupled = npin > 0
-    two_way = host_impulse.shape[0] > 0
-    scale = -1.0 / (h * h)
-    finite, released = True, 0
-    for sub in range(n):
-        frac = (sub + 1.0) / n
-        for i in range(target.shape[0]):
-            for c in range(3):
-                target[i, c] = start_from[i, c] + frac * (start_to[i, c] - start_from[i, c])
-        if coupled:
-            for j in range(npin):
-                b, s = links[j, _LK_BODY], links[j, _LK_SITE]
-                for c in range(3):
-                    p0[j, c] = site_xpos[s, c]
-                    arm[j, c] = p0[j, c] - xipos[b, c]
-            for j in range(npin):  # the body's inverse mass at its point along the cable
-                _call_jac(capi[_HC_JAC], capi[_HC_MODEL], capi[_HC_DATA], jacp, p0[j], links[j, _LK_BODY])
-                pin_axis_jacobian(x, links[j, _LK_PARTICLE], links[j, _LK_NEIGHBOUR], jacp, jn[0])
-                _call_solve(capi[_HC_SOLVE_M], capi[_HC_MODEL], capi[_HC_DATA], solved, jn, 1)
-                w_b = dot(jn[0], solved[0])
-                free_w[j] = w_b if w_b > RIGID else 0.0
-            _call_state(capi[_HC_GET_STATE], capi[_HC_MODEL], capi[_HC_DATA], saved, capi[_HC_SIG])
-            _mj_step(capi)
-            _mj_kinematics(capi)
-            for j in range(npin):
-                s = links[j, _LK_SITE]
-                for c in range(3):
-                    free[j, c] = site_xpos[s, c]
-            for k in range(clamps.shape[0]):
-                turn_clamp(xmat, clamps[k, 1], clamp_local[k], clamp_dir, clamps[k, 0])
-            _call_state(capi[_HC_SET_STATE], capi[_HC_MODEL], capi[_HC_DATA], saved, capi[_HC_SIG])
-            for j in range(npin):
-                for c in range(3):
-                    target[links[j, _LK_PIN], c] = free[j, c]
-                w[links[j, _LK_PARTICLE]] = free_w[j]
-        for i in range(target.shape[0]):
-            for c in range(3):
-                pin_to[i, c] = target[i, c]
-        if two_way:
-            host_impulse[:] = 0.0
-        ok, got = run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq,
-                                    clamp_pin, clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release,
-                                    pin_force, pin_sum, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, fric,
-                                    anchor, anchor_ob, fp, ip, seg, geo, lam, pair, sgeo, slam, shapes, impulse,
-                                    np.int64(1), np.int64(PHASE_ALL), np.int64(0))
-        finite = finite and ok
-        released += got
-        if coupled:
-            for j in range(npin):
-                k, p = links[j, _LK_PIN], links[j, _LK_PARTICLE]
-                if free_w[j] > 0.0:  # the cable's pull on the body, F + m_p g; the pin holds the particle with −F
-                    denom = free_w[j] * h * h
-                    for c in range(3):
-                        f[j, c] = (x[p, c] - free[j, c]) / denom
-                    for c in range(3):
-                        f[j, c] += mass[p] * gravity[c]
-                    for c in range(3):
-                        pin_sum[k, PS_F + c] += -f[j, c] - pin_force[k, c]
-                        pin_force[k, c] = -f[j, c]
-                else:
-                    for c in range(3):
-                        f[j, c] = -pin_force[k, c]
-            for j in range(npin):
-                for c in range(3):
-                    applied[j, c] = f[j, c]
-                applied[j, 3] = arm[j, 1] * f[j, 2] - arm[j, 2] * f[j, 1]
-                applied[j, 4] = arm[j, 2] * f[j, 0] - arm[j, 0] * f[j, 2]
-                applied[j, 5] = arm[j, 0] * f[j, 1] - arm[j, 1] * f[j, 0]
-            for j in range(npin):
-                b = links[j, _LK_BODY]
-                for c in range(6):
-                    xfrc_applied[b, c] += applied[j, c]
-        if two_way:
-            contact_kernels.body_wrenches(host_impulse, wrench_obstacles, wrench_bodies, xipos, scale,
-                                          contact_wrench, xfrc_applied)
-        _mj_step(capi)
-        if coupled:
-            for j in range(npin):
-                b = links[j, _LK_BODY]
-                for c in range(6):
-                    xfrc_applied[b, c] -= applied[j, c]
-        if two_way:
-            for b in range(xfrc_applied.shape[0]):
-                for c in range(6):
-                    xfrc_applied[b, c] -= contact_wrench[b, c]
-        _mj_kinematics(capi)
-        for r in range(moving.shape[0]):
-            g, row = moving[r, 0], moving[r, 1]
-            for c in range(3):
-                obstacle_shapes[row, SH_POS + c] = geom_xpos[g, c]
-            for c in range(9):
-                obstacle_shapes[row, SH_ROT + c] = geom_xmat[g, c]
-        if coupled:
-            for j in range(npin):
-                p, s = links[j, _LK_PARTICLE], links[j, _LK_SITE]
-                for c in range(3):
-                    x[p, c] = site_xpos[s, c]
-                    v[p, c] = (site_xpos[s, c] - p0[j, c]) / h
-        first = -1
-        for k in range(bad.shape[0]):
-            if warning_number[bad[k]] > 0:
-                if first < 0:
-                    first = bad[k]
-                warning_number[bad[k]] = 0
-        if first >= 0:
-            return finite, released, first
-    for i in range(pin_to.shape[0]):
+@_jit
+def host_before(S, sub, n):
+    """Before the solver's substep ``sub`` of ``n`` (steps 1–2 of the module docstring): the pins' targets for the
+    substep, and per body pin its inverse mass along the cable w_b, the trial step's free path b_free (the particle's
+    target, its inverse mass w_b; 0 where w_b ≤ ``RIGID``) and the clamps turned with their bodies; the contacts'
+    impulse sums zeroed."""
+    P = S.par[0]
+    x, w = S.x, S.w
+    start_from, start_to, target = S.start_from, S.start_to, S.target
+    link_pin, link_particle, link_neighbour, link_body, link_site = (S.link_pin, S.link_particle, S.link_neighbour,
+                                                                     S.link_body, S.link_site)
+    site_xpos, xipos, p0, arm, free, free_w = S.site_xpos, S.xipos, S.p0, S.arm, S.free, S.free_w
+    npin = link_pin.shape[0]
+    frac = (sub + 1.0) / n
+    for i in range(target.shape[0]):
         for c in range(3):
-            pin_to[i, c] = start_to[i, c]
-    if coupled:
+            target[i, c] = start_from[i, c] + frac * (start_to[i, c] - start_from[i, c])
+    if npin:
         for j in range(npin):
-            k, s = links[j, _LK_PIN], links[j, _LK_SITE]
+            b, s = link_body[j], link_site[j]
             for c in range(3):
-                pin_to[k, c] = site_xpos[s, c]
-    return finite, released, -1
+                p0[j, c] = site_xpos[s, c]
+                arm[j, c] = p0[j, c] - xipos[b, c]
+        for j in range(npin):  # the body's inverse mass at its point along the cable
+            _call_jac(P.fn_jac, P.model, P.data, S.jacp, p0[j], link_body[j])
+            pin_axis_jacobian(x, link_particle[j], link_neighbour[j], S.jacp, S.jn[0])
+            _call_solve(P.fn_solve_m, P.model, P.data, S.solved, S.jn, 1)
+            w_b = dot(S.jn[0], S.solved[0])
+            free_w[j] = w_b if w_b > RIGID else 0.0
+        _call_state(P.fn_get_state, P.model, P.data, S.saved, P.state_sig)
+        _mj_step(P)
+        _mj_kinematics(P)
+        for j in range(npin):
+            s = link_site[j]
+            for c in range(3):
+                free[j, c] = site_xpos[s, c]
+        for k in range(S.link_clamp.shape[0]):
+            turn_clamp(S.xmat, S.link_clamp[k, 1], S.clamp_local[k], S.clamp_dir, S.link_clamp[k, 0])
+        _call_state(P.fn_set_state, P.model, P.data, S.saved, P.state_sig)
+        for j in range(npin):
+            for c in range(3):
+                target[link_pin[j], c] = free[j, c]
+            w[link_particle[j]] = free_w[j]
+    pin_to = S.pin_to
+    for i in range(target.shape[0]):
+        for c in range(3):
+            pin_to[i, c] = target[i, c]
+    if S.impulse.shape[0]:
+        S.impulse[:] = 0.0
+
+
+@_jit
+def host_after(S):
+    """After the solver's substep (steps 4–5 of the module docstring): the cable's pull on each body pin's body and
+    the contacts' reactions on the dynamic bodies through ``xfrc_applied``, the world's ``mj_step``, the moving
+    obstacles' shapes, the pinned particles where their body points went. Returns whether one of MuJoCo's
+    divergence warnings (``S.bad``) stopped the step: the first goes to ``par.warning``, their counts zeroed."""
+    P = S.par[0]
+    h = P.h
+    x, v, mass, pin_force, pin_sum = S.x, S.v, S.mass, S.pin_force, S.pin_sum
+    link_pin, link_particle, link_body, link_site = S.link_pin, S.link_particle, S.link_body, S.link_site
+    site_xpos, xfrc_applied, p0, arm, free, free_w, f, applied = (S.site_xpos, S.xfrc_applied, S.p0, S.arm, S.free,
+                                                                  S.free_w, S.force, S.applied)
+    npin = link_pin.shape[0]
+    two_way = S.impulse.shape[0] > 0
+    gravity = (P.gx, P.gy, P.gz)
+    if npin:
+        for j in range(npin):
+            k, p = link_pin[j], link_particle[j]
+            if free_w[j] > 0.0:  # the cable's pull on the body, F + m_p g; the pin holds the particle with −F
+                denom = free_w[j] * h * h
+                for c in range(3):
+                    f[j, c] = (x[p, c] - free[j, c]) / denom
+                for c in range(3):
+                    f[j, c] += mass[p] * gravity[c]
+                for c in range(3):  # the kernel counted −m g for the pin (its particle was free): −F instead
+                    pin_sum[k, c] += -f[j, c] - pin_force[k, c]
+                    pin_force[k, c] = -f[j, c]
+            else:
+                for c in range(3):
+                    f[j, c] = -pin_force[k, c]
+        for j in range(npin):
+            for c in range(3):
+                applied[j, c] = f[j, c]
+            applied[j, 3] = arm[j, 1] * f[j, 2] - arm[j, 2] * f[j, 1]
+            applied[j, 4] = arm[j, 2] * f[j, 0] - arm[j, 0] * f[j, 2]
+            applied[j, 5] = arm[j, 0] * f[j, 1] - arm[j, 1] * f[j, 0]
+        for j in range(npin):
+            b = link_body[j]
+            for c in range(6):
+                xfrc_applied[b, c] += applied[j, c]
+    if two_way:
+        contact_kernels.body_wrenches(S.impulse, S.wrench_rows, S.wrench_bodies, S.xipos, -1.0 / (h * h),
+                                      S.contact_wrench, xfrc_applied)
+    _mj_step(P)
+    if npin:
+        for j in range(npin):
+            b = link_body[j]
+            for c in range(6):
+                xfrc_applied[b, c] -= applied[j, c]
+    if two_way:
+        for b in range(xfrc_applied.shape[0]):
+            for c in range(6):
+                xfrc_applied[b, c] -= S.contact_wrench[b, c]
+    _mj_kinematics(P)
+    refresh_moving(S)
+    for j in range(npin):
+        p, s = link_particle[j], link_site[j]
+        for c in range(3):
+            x[p, c] = site_xpos[s, c]
+            v[p, c] = (site_xpos[s, c] - p0[j, c]) / h
+    first = -1
+    bad, warning_number = S.bad, S.warning_number
+    for k in range(bad.shape[0]):
+        if warning_number[bad[k]] > 0:
+            if first < 0:
+                first = bad[k]
+            warning_number[bad[k]] = 0
+    P.warning = first
+    return first >= 0
+
+
+@_jit
+def host_end_step(S):
+    """A step's end: the pins' targets back to the step's end target, a body pin's at its body point now."""
+    pin_to = S.pin_to
+    pin_to[:, :] = S.start_to
+    for j in range(S.link_pin.shape[0]):
+        k, s = S.link_pin[j], S.link_site[j]
+        for c in range(3):
+            pin_to[k, c] = S.site_xpos[s, c]

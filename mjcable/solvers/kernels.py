@@ -46,7 +46,6 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
-# The projections, the direct order and the layout, re-exported: callers keep importing them from here.
 from mjcable.solvers.constraint_kernels import (
     _bend_clamp_sweeps, clamp_sweep, curvature_sweep,  # noqa: F401
     stretch_step, stretch_step_rigid, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
@@ -55,27 +54,23 @@ from mjcable.solvers.contact_kernels import (
     collect_impulses, contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
     update_anchors,  # noqa: F401
 )
-from mjcable.solvers.query_kernels import find_self_contacts, query_obstacles
-from mjcable.solvers.direct_kernels import (
-    _DIRECT_CONTRACTION, _DIRECT_MAX_SOLVES, _DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,  # noqa: F401
-    _direct_apply, _direct_linearise, _direct_relinearise, _direct_within, _distance_rows_within,  # noqa: F401
-    banded_ldlt_solve, direct_solve,  # noqa: F401
-)
+from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # noqa: F401
+from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
-    _F_ALPHA_B, _F_ALPHA_C, _F_ALPHA_S, _F_DAMP, _F_GX, _F_GY, _F_GZ, _F_H, _F_INV_L0SQ, _F_K_B,  # noqa: F401
-    _F_K_C, _F_K_S, _F_OMEGA, _F_RADIUS, _I_BEND, _I_BW, _I_DIRECT_ALL, _I_ITER, _I_ORDER, _I_SQRT,  # noqa: F401
-    _I_SUBSTEPS, N_PS, PS_F, PS_N,  # noqa: F401
-    _F_MU_SELF, _L_DISTANCE, _L_DT, _L_FALL, _L_MARGIN, _L_RADIUS, _L_SPEED, _TINY_LENGTH, _TINY_SLIP,  # noqa: F401
-    BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, FP, IP, LIM, N_FP, N_IP, ORDER_DIRECT,  # noqa: F401
-    ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PHASE_ALL, PHASE_BEGIN, PHASE_END, PHASE_ITERATE, ROW_CLAMP,  # noqa: F401
-    ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH, Chain, Contacts, IM_F, IM_M, N_FR, N_SH,  # noqa: F401
-    SH_POS, SH_ROT, SH_SIZE, SH_TYPE, CAPI, CAPI_ENABLED, COUNT_CONTACTS, COUNT_QUERIES, COUNT_SELF, N_CAPI,  # noqa: F401
+    BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
+    PHASE_BEGIN, PHASE_END, PHASE_HOST_AFTER, PHASE_HOST_BEFORE, PHASE_ITERATE, QUERY_COMPILED, QUERY_PYTHON,
+    RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, SolverState,  # noqa: F401
 )
+from mjcable.solvers.monitor_kernels import step_check
+from mjcable.solvers.query_kernels import query_obstacles, self_contacts
 
-__all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_flat", "step_margin", "begin_substep",
-           "iterate", "end_substep", "xpbd_multiplier", "stretch_step", "stretch_step_sqrt", "stretch_sweep",
-           "curvature_sweep", "clamp_sweep", "contact_sweep", "friction_sweep", "self_contact_sweep", "direct_solve",
-           "banded_ldlt_solve", "FP", "IP", "LIM", "is_plain", "plain_substep"]
+__all__ = ["SolverState", "run_steps", "run_phase", "substep", "begin_substep", "iterate", "end_substep",
+           "is_plain", "plain_substep", "step_margin", "touches_obstacles", "xpbd_multiplier", "stretch_step",
+           "stretch_step_sqrt", "stretch_sweep", "curvature_sweep", "clamp_sweep", "contact_sweep", "friction_sweep",
+           "self_contact_sweep", "direct_solve", "banded_ldlt_solve", "STEP_BEGIN", "STEP_END"]
+
+# run_phase's step-level phases (beside the substep phases PHASE_* of kernels_layout)
+STEP_BEGIN, STEP_END = 10, 11
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -83,17 +78,15 @@ __all__ = ["Chain", "Contacts", "run_substeps", "run_substeps_flat", "run_steps_
 
 
 @_inline
-def _predict(x, v, x0, w, react, fp):
+def _predict(x, v, x0, w, react, h, damp, gx, gy, gz):
     """Predict: x₀ ← x, and for every free particle (w > 0) v ← e^{−c h} v + h g, x ← x + h v (semi-implicit
     Euler in velocity form; Verlet is the same recurrence with v read as (x − x_prev)/h, [T20] Eq. 2.7 with
     Jakobsen's damping); a held particle's (w = 0) reaction ``react`` ← 0. ``x``, ``v``, ``x0``, ``react`` (N, 3)
-    m, m/s, kg·m; ``w`` (N,) 1/kg.
+    m, m/s, kg·m; ``w`` (N,) 1/kg; ``damp`` = e^{−c h}; ``h`` s; g m/s².
 
     Only held particles collect reactions (every sweep adds to ``react`` where w = 0, moves ``x`` elsewhere) and
     only pinned particles are ever held, so a free particle's row stays 0 without being zeroed every substep
     (:func:`_move_pins` zeroes the pins' rows, so a pin whose particle turned free keeps none either)."""
-    h, damp = fp[_F_H], fp[_F_DAMP]
-    gx, gy, gz = fp[_F_GX], fp[_F_GY], fp[_F_GZ]
     for p in range(x.shape[0]):
         x0[p, 0] = x[p, 0]
         x0[p, 1] = x[p, 1]
@@ -113,40 +106,41 @@ def _predict(x, v, x0, w, react, fp):
 
 
 @_inline
-def _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, substeps, sub, n_sub):
+def _move_pins(S, sub, n_sub):
     """Held particles to their pin targets, interpolated linearly across the step (substep ``sub`` of ``n_sub``
-    reaches ``(sub + 1) / n_sub`` of the way from ``pin_from`` to ``pin_to`` (P, 3) m), every pinned particle's
-    reaction ``react`` (N, 3) zeroed, and a pin's force sums (``pin_sum`` (P, N_PS)) zeroed when they hold a whole
-    step's ``substeps`` (:func:`_pin_forces`)."""
+    reaches ``(sub + 1) / n_sub`` of the way from ``pin_from`` to ``pin_to``), every pinned particle's reaction
+    zeroed, and a pin's force sums (``pin_sum``, ``pin_count``) zeroed when they hold a whole step's substeps
+    (:func:`_pin_forces`)."""
+    x, react, pin_p, pin_from, pin_to, pin_active = S.x, S.react, S.pin_p, S.pin_from, S.pin_to, S.pin_active
+    pin_sum, pin_count = S.pin_sum, S.pin_count
+    substeps = S.par[0].substeps
     frac = (sub + 1.0) / n_sub
     for k in range(pin_p.shape[0]):
         q = pin_p[k]
         react[q, 0] = 0.0
         react[q, 1] = 0.0
         react[q, 2] = 0.0
-        if pin_sum[k, PS_N] >= substeps:  # the last step's sums are complete: this substep starts a new step
-            for col in range(N_PS):
-                pin_sum[k, col] = 0.0
+        if pin_count[k] >= substeps:  # the last step's sums are complete: this substep starts a new step
+            pin_sum[k, 0] = pin_sum[k, 1] = pin_sum[k, 2] = 0.0
+            pin_count[k] = 0.0
         if pin_active[k]:
-            p = pin_p[k]
             for comp in range(3):
-                x[p, comp] = pin_from[k, comp] + frac * (pin_to[k, comp] - pin_from[k, comp])
+                x[q, comp] = pin_from[k, comp] + frac * (pin_to[k, comp] - pin_from[k, comp])
 
 
 @_inline
-def begin_substep(S, C, sub, n_sub):
-    """Predict (:func:`_predict`), move held particles to their pin targets (interpolated linearly across the
-    step) and, at a step's first substep, zero the pins' force sums (``pin_sum``, :func:`_move_pins`), and reset the
+def begin_substep(S, sub, n_sub):
+    """Predict (:func:`_predict`), move held particles to their pin targets (:func:`_move_pins`) and reset the
     multipliers (every substep, [M16] Algorithm 1)."""
-    x = S.x
-    _predict(x, S.v, S.x0, S.w, S.react, S.fp)
-    _move_pins(x, S.react, S.pin_p, S.pin_from, S.pin_to, S.pin_active, S.pin_sum, S.ip[_I_SUBSTEPS], sub, n_sub)
+    P = S.par[0]
+    _predict(S.x, S.v, S.x0, S.w, S.react, P.h, P.damp, P.gx, P.gy, P.gz)
+    _move_pins(S, sub, n_sub)
     S.lam_s[:] = 0.0
     S.lam_d[:] = 0.0
     S.lam_b[:] = 0.0
     S.lam_c[:] = 0.0
-    C.lam[:] = 0.0
-    C.slam[:] = 0.0
+    S.lam[:P.n_con] = 0.0
+    S.slam[:P.n_self] = 0.0
 
 
 @_jit
@@ -158,7 +152,7 @@ def _jacobi_counts(S):
     for i in range(n):
         cnt[i] += 1.0
         cnt[i + 1] += 1.0
-    bending = S.ip[_I_BEND]
+    bending = S.par[0].bending
     if bending == BEND_CURVATURE:
         for b in range(n - 1):
             cnt[b] += 1.0
@@ -175,28 +169,28 @@ def _jacobi_counts(S):
 
 
 @_inline
-def iterate(S, C):
+def iterate(S):
     """One constraint iteration in the configured order; contacts are projected sequentially last, so that they
     hold exactly when the iteration ends."""
-    fp = S.fp
-    h2 = fp[_F_H] * fp[_F_H]
-    at_s, at_b, at_c = fp[_F_ALPHA_S] / h2, fp[_F_ALPHA_B] / h2, fp[_F_ALPHA_C] / h2
-    k_s, k_b, k_c = fp[_F_K_S], fp[_F_K_B], fp[_F_K_C]
-    order = S.ip[_I_ORDER]
+    P = S.par[0]
+    h2 = P.h * P.h
+    at_s, at_b, at_c = P.alpha_s / h2, P.alpha_b / h2, P.alpha_c / h2
+    k_s, k_b, k_c = P.k_s, P.k_b, P.k_c
+    order = P.order
     x, w = S.x, S.w
-    bend_or_clamp = S.ip[_I_BEND] != BEND_NONE or S.clamp_pq.shape[0] > 0
+    bend_or_clamp = P.bending != BEND_NONE or S.clamp_pq.shape[0] > 0
     if order == ORDER_DIRECT:
         direct_solve(S, at_s, at_b, at_c, k_s, k_b, k_c)
-        if not S.ip[_I_DIRECT_ALL] and bend_or_clamp:  # PBD/Jakobsen: only the stretch chain is solved directly
+        if not P.direct_all and bend_or_clamp:  # PBD/Jakobsen: only the stretch chain is solved directly
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
     elif order == ORDER_JACOBI:
         dx = S.dx
         dx[:] = 0.0
-        stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, S.ip[_I_SQRT] != 0)
+        stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx)
         if bend_or_clamp:
             _bend_clamp_sweeps(S, dx, at_b, at_c, k_b, k_c)
         _jacobi_counts(S)
-        omega = fp[_F_OMEGA]
+        omega = P.omega
         cnt = S.count
         for p in range(x.shape[0]):
             if cnt[p] > 0.0 and w[p] > 0.0:
@@ -205,42 +199,33 @@ def iterate(S, C):
                 x[p, 1] += f * dx[p, 1]
                 x[p, 2] += f * dx[p, 2]
     else:
-        stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, S.ip[_I_SQRT] != 0)
-        if bend_or_clamp:  # a call passing S costs microseconds: skip it when there is nothing to do
+        stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx)
+        if bend_or_clamp:  # a call passing S: skipped when there is nothing to do
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
-    if C.seg.shape[0]:
-        contact_sweep(x, w, S.react, S.fric, S.anchor_ob, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS])
-        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, C.shapes)
-    if C.pair.shape[0]:
-        self_contact_sweep(x, S.x0, w, S.react, C.pair, C.sgeo, 2.0 * fp[_F_RADIUS], fp[_F_MU_SELF], C.slam)
+    n_con, n_self = P.n_con, P.n_self
+    if n_con:
+        contact_sweep(x, w, S.react, S.fric, S.anchor_ob, S.seg[:n_con], S.geo[:n_con], S.lam[:n_con], S.shapes,
+                      P.radius)
+        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, S.shapes)
+    if n_self:
+        self_contact_sweep(x, S.x0, w, S.react, S.pair[:n_self], S.sgeo[:n_self], 2.0 * P.radius, P.mu_self,
+                           S.slam[:n_self])
 
 
 @_inline
-def end_substep(S, C):
-    """Contact anchors (:func:`update_anchors`); v = (x − x₀)/h; the pins' forces; sockets let go. Returns the number
-    released.
-
-    A held particle's force, the force that holds it ([M16]'s force estimate ∇Cᵀλ / h²), in substep s:
-    F_s = −Σ ∇C λ / h² − m g, from its reactions ``react`` (stretch, bending, clamp and contact shares); it goes
-    to ``pin_force`` (the host's body pins couple through it every substep) and is added to ``pin_sum``. At the
-    step's last substep (``pin_sum`` holds ``ip[substeps]`` of them) a socket lets go, with its clamp, if the
-    step's mean force |F̄| = |Σ_s F_s| / n exceeds its release force. F̄ = J / dt, J = Σ_s F_s h the impulse the
-    pin gave its particle over the step: the force that would give the same momentum held for the whole step, the
-    quantity MuJoCo's constraint force of one step is (native sockets decide on it per step). A single substep's
-    F_s is not: a positional solver settles a violation in one substep, so a contact that pushes a segment out of
-    a moving body (the Jaco hand's finger tip, measured: 8.7 N at a cable segment 3 segments from the grip) leaves
-    the chain over-long and the next substep's stretch solve pulls all of it, up to the socket 22 segments away,
-    with 18 N for that 0.2 ms substep (3.6 mN·s, at 0.85 N before), a socket of 5 N let go at that spike at
-    t = 0.67 s; the step's mean is 2.4 N, and the socket lets go at 0.76 s at 4.6 N, as the native models."""
-    fp = S.fp
+def end_substep(S):
+    """Contact anchors (:func:`update_anchors`; before them, with two-way contacts, the contacts' impulses per
+    obstacle: :func:`collect_impulses`); v = (x − x₀)/h; the pins' forces and sockets that let go
+    (:func:`_pin_forces`). Returns the number released."""
+    P = S.par[0]
     x = S.x
-    if C.shapes.shape[0]:
-        if C.impulse.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
-            collect_impulses(x, S.w, S.fric, C.seg, C.geo, C.lam, C.shapes, fp[_F_RADIUS], C.impulse)
-        update_anchors(x, S.fric, S.anchor, S.anchor_ob, C.shapes)
-    _velocities(x, S.v, S.x0, 1.0 / fp[_F_H])
-    return _pin_forces(S.w, S.mass, S.react, fp, S.pin_p, S.pin_active, S.pin_release, S.pin_force, S.pin_sum,
-                       S.ip[_I_SUBSTEPS])
+    if S.shapes.shape[0]:
+        n = P.n_con
+        if S.impulse.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
+            collect_impulses(x, S.w, S.fric, S.seg[:n], S.geo[:n], S.lam[:n], S.shapes, P.radius, S.impulse)
+        update_anchors(x, S.fric, S.anchor, S.anchor_ob, S.shapes)
+    _velocities(x, S.v, S.x0, 1.0 / P.h)
+    return _pin_forces(S)
 
 
 @_inline
@@ -253,31 +238,39 @@ def _velocities(x, v, x0, inv_h):
 
 
 @_inline
-def _pin_forces(w, mass, react, fp, pin_p, pin_active, pin_release, pin_force, pin_sum, substeps):
-    """The active pins' substep forces F_s = −``react`` / h² − m g (N) into ``pin_force`` (P, 3) and ``pin_sum``
-    (P, N_PS); at the step's last substep (``pin_sum`` holds ``substeps`` of them) a socket whose mean force exceeds
-    ``pin_release`` (P,) N lets go (its particle gets w = 1/m, ``pin_active`` False). Returns the number released
-    (:func:`end_substep`)."""
-    inv_h = 1.0 / fp[_F_H]
+def _pin_forces(S):
+    """The active pins' substep forces F_s = −∇Cᵀλ / h² − m g ([M16]'s force estimate, from the held particle's
+    reactions ``react``) into ``pin_force`` and added to ``pin_sum`` / ``pin_count``; at the step's last substep
+    (``pin_count`` = substeps) a socket whose mean force F̄ = |Σ_s F_s| / n exceeds ``pin_release`` lets go (its
+    particle gets w = 1/m, ``pin_active`` False). F̄ = J / dt, J the impulse the pin gave its particle over the step:
+    the quantity MuJoCo's constraint force of one step is (native sockets decide on it per step). A single
+    substep's force is not a measure of the pull: a positional solver settles a violation within one substep, as a
+    force spike of that substep. Returns the number released."""
+    P = S.par[0]
+    w, mass, react = S.w, S.mass, S.react
+    pin_p, pin_active, pin_force, pin_sum, pin_count = S.pin_p, S.pin_active, S.pin_force, S.pin_sum, S.pin_count
+    substeps = P.substeps
+    inv_h = 1.0 / P.h
     inv_h2 = inv_h * inv_h
+    gx, gy, gz = P.gx, P.gy, P.gz
     released = 0
     for k in range(pin_p.shape[0]):
         if not pin_active[k]:
             continue
         p = pin_p[k]
         m = mass[p]
-        fx = -react[p, 0] * inv_h2 - m * fp[_F_GX]
-        fy = -react[p, 1] * inv_h2 - m * fp[_F_GY]
-        fz = -react[p, 2] * inv_h2 - m * fp[_F_GZ]
+        fx = -react[p, 0] * inv_h2 - m * gx
+        fy = -react[p, 1] * inv_h2 - m * gy
+        fz = -react[p, 2] * inv_h2 - m * gz
         pin_force[k, 0], pin_force[k, 1], pin_force[k, 2] = fx, fy, fz
-        pin_sum[k, PS_F] += fx
-        pin_sum[k, PS_F + 1] += fy
-        pin_sum[k, PS_F + 2] += fz
-        pin_sum[k, PS_N] += 1.0
-        if pin_sum[k, PS_N] >= substeps:
-            n = pin_sum[k, PS_N]
-            mx, my, mz = pin_sum[k, PS_F] / n, pin_sum[k, PS_F + 1] / n, pin_sum[k, PS_F + 2] / n
-            if math.sqrt(mx * mx + my * my + mz * mz) > pin_release[k]:
+        pin_sum[k, 0] += fx
+        pin_sum[k, 1] += fy
+        pin_sum[k, 2] += fz
+        pin_count[k] += 1.0
+        if pin_count[k] >= substeps:
+            n = pin_count[k]
+            mx, my, mz = pin_sum[k, 0] / n, pin_sum[k, 1] / n, pin_sum[k, 2] / n
+            if math.sqrt(mx * mx + my * my + mz * mz) > S.pin_release[k]:
                 pin_active[k] = False
                 w[p] = 1.0 / m
                 released += 1
@@ -285,89 +278,72 @@ def _pin_forces(w, mass, react, fp, pin_p, pin_active, pin_release, pin_force, p
 
 
 @_inline
-def is_plain(S, C):
+def is_plain(S):
     """Whether a substep is :func:`plain_substep`'s: Gauss-Seidel order, no bending, no clamps, no obstacle shapes
     and no contacts."""
-    ip = S.ip
-    return (ip[_I_ORDER] == ORDER_GAUSS_SEIDEL and ip[_I_BEND] == BEND_NONE and S.clamp_pq.shape[0] == 0
-            and C.shapes.shape[0] == 0 and C.seg.shape[0] == 0 and C.pair.shape[0] == 0)
+    P = S.par[0]
+    return (P.order == ORDER_GAUSS_SEIDEL and P.bending == BEND_NONE and S.clamp_pq.shape[0] == 0
+            and S.shapes.shape[0] == 0 and P.n_con == 0 and P.n_self == 0)
 
 
 @_inline
-def plain_substep(x, v, x0, w, mass, react, rest, lam_s, pin_p, pin_from, pin_to, pin_active, pin_release,
-                  pin_force, pin_sum, fp, ip, sub, n_sub):
+def plain_substep(S, sub, n_sub):
     """Substep ``sub`` of ``n_sub`` of a chain that :func:`is_plain` (stretch constraints only, Gauss-Seidel, no
-    contacts): :func:`begin_substep`, ``iterations`` × :func:`iterate` and :func:`end_substep` for that case, the
-    same arithmetic in the same order (bit for bit), on the chain's arrays passed one by one. Returns the number of
-    sockets released.
-
-    Why a separate path: the general pieces, inlined into one substep loop with the code of every order and of the
-    contacts, ran hang's substep (51 particles) 0.4 µs slower than this loop of the same operations, though that
-    code never ran (numba 0.68, measured; see ``scripts/bench_speed.py``)."""
-    _predict(x, v, x0, w, react, fp)
-    _move_pins(x, react, pin_p, pin_from, pin_to, pin_active, pin_sum, ip[_I_SUBSTEPS], sub, n_sub)
+    contacts): :func:`begin_substep`, ``iterations`` stretch sweeps and :func:`end_substep` for that case, from the
+    same pieces, without the branches of the other orders and of the contacts (a hanging chain's substep pays for
+    nothing it doesn't do; ``docs/measurements.md``). Returns the number of sockets released."""
+    P = S.par[0]
+    x, w, react, lam_s = S.x, S.w, S.react, S.lam_s
+    h = P.h
+    _predict(x, S.v, S.x0, w, react, h, P.damp, P.gx, P.gy, P.gz)
+    _move_pins(S, sub, n_sub)
     lam_s[:] = 0.0
-    h2 = fp[_F_H] * fp[_F_H]
-    at_s, k_s, sqrt_approx = fp[_F_ALPHA_S] / h2, fp[_F_K_S], ip[_I_SQRT] != 0
-    for _ in range(ip[_I_ITER]):
+    at_s, k_s, sqrt_approx = P.alpha_s / (h * h), P.k_s, P.sqrt_approx
+    rest = S.rest
+    for _ in range(P.iterations):
         stretch_sweep(x, x, w, react, rest, 1, at_s, lam_s, k_s, sqrt_approx)
-    _velocities(x, v, x0, 1.0 / fp[_F_H])
-    return _pin_forces(w, mass, react, fp, pin_p, pin_active, pin_release, pin_force, pin_sum, ip[_I_SUBSTEPS])
+    _velocities(x, S.v, S.x0, 1.0 / h)
+    return _pin_forces(S)
+
+
+@_jit
+def substep(S, sub, n_sub):
+    """Substep ``sub`` of ``n_sub`` (the pins' targets interpolated across them): :func:`plain_substep` where it
+    applies, else :func:`begin_substep`, ``iterations`` × :func:`iterate`, :func:`end_substep`. Returns the number of
+    sockets released. Compiled once and called (not inlined) by the step loop, with or without a host world: one
+    call per substep costs nanoseconds, one copy of the substep's code less compile time."""
+    if is_plain(S):
+        return plain_substep(S, sub, n_sub)
+    begin_substep(S, sub, n_sub)
+    for _ in range(S.par[0].iterations):
+        iterate(S)
+    return end_substep(S)
 
 
 @_inline
-def run_substeps(S, C, n_sub, phase, sub):
-    """Substeps of ``iterations`` iterations each. Returns (all positions and velocities finite, number of sockets
-    released).
-
-    ``phase`` ``PHASE_ALL`` runs ``n_sub`` whole substeps (``sub`` ignored); the other phases run one piece of
-    substep ``sub`` of ``n_sub``, so that a Python caller (PBD's user constraints) can act between iterations
-    without a second compiled entry point: ``PHASE_BEGIN`` (predict), ``PHASE_ITERATE`` (one iteration),
-    ``PHASE_END`` (velocities and pins). Whole substeps of a chain that :func:`is_plain` run
-    :func:`plain_substep`."""
+def _substeps(S):
+    """One step's ``substeps`` substeps; in a user world each with the host's coupling and ``mj_step``
+    (:mod:`mjcable.solvers.host_kernels`; a MuJoCo warning that stops the step goes to ``par.warning``). Returns the
+    number of sockets released."""
+    P = S.par[0]
+    n = P.substeps
     released = 0
-    if phase == PHASE_ALL and is_plain(S, C):
-        for k in range(n_sub):
-            released += plain_substep(S.x, S.v, S.x0, S.w, S.mass, S.react, S.rest, S.lam_s, S.pin_p, S.pin_from,
-                                      S.pin_to, S.pin_active, S.pin_release, S.pin_force, S.pin_sum, S.fp, S.ip, k,
-                                      n_sub)
-    elif phase == PHASE_ALL:
-        for k in range(n_sub):
-            begin_substep(S, C, k, n_sub)
-            for _ in range(S.ip[_I_ITER]):
-                iterate(S, C)
-            released += end_substep(S, C)
-    elif phase == PHASE_BEGIN:
-        begin_substep(S, C, sub, n_sub)
-    elif phase == PHASE_ITERATE:
-        iterate(S, C)
+    if P.host:
+        host_begin_step(S)
+        for sub in range(n):
+            host_before(S, sub, n)
+            released += substep(S, 0, 1)  # the host set the pins' targets for this substep
+            if host_after(S):
+                return released
+        host_end_step(S)
     else:
-        released = end_substep(S, C)
-    finite = True
-    x, v = S.x, S.v
-    for p in range(x.shape[0]):
-        for comp in range(3):
-            if not (math.isfinite(x[p, comp]) and math.isfinite(v[p, comp])):
-                finite = False
-    return finite, released
-
-
-@_nogil
-def run_substeps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-                      clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum,
-                      row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo,
-                      lam, pair, sgeo, slam, shapes, impulse, n_sub, phase, sub):
-    """:func:`run_substeps` with the state's arrays as separate arguments (``*chain, *contacts, n_sub, phase,
-    sub``): numba types plain array arguments in C but a named tuple of 40 arrays in Python (about 25 µs a call)."""
-    S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
-              row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
-    C = Contacts(seg, geo, lam, pair, sgeo, slam, shapes, impulse)
-    return run_substeps(S, C, n_sub, phase, sub)
+        for sub in range(n):
+            released += substep(S, sub, n)
+    return released
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Whole steps: the Simulator's steps without returning to Python while nothing needs it.
+# Whole steps: contacts, substeps, checks.
 
 
 @_inline
@@ -383,11 +359,11 @@ def step_margin(v, contact_margin, dt, fall):
     return margin if math.isfinite(margin) else contact_margin
 
 
-@_inline
+@_jit
 def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
     """Whether the bounding box of particles ``x`` (N, 3), grown by ``reach`` metres, touches an obstacle: a world
     bounding box (``box_lo``, ``box_hi`` (B, 3)) or the solid side of a plane (unit normal ``plane_n``, point
-    ``plane_p`` (F, 3)). The step driver and :meth:`mjcable.solvers.contacts.ObstacleContacts.touching` share it."""
+    ``plane_p`` (F, 3))."""
     lo0 = lo1 = lo2 = math.inf
     hi0 = hi1 = hi2 = -math.inf
     for p in range(x.shape[0]):
@@ -409,118 +385,137 @@ def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
 
 
 @_inline
-def _step_checks(x, v, prev, lim):
-    """(x, v finite; runaway: |coordinate| > lim[max_distance] or |x − prev| / dt > lim[max_speed]), as Simulator."""
-    far, top, bad = 0.0, 0.0, 0.0  # bad: NaN once any x or v is non-finite (z − z), without a branch
-    for p in range(x.shape[0]):
-        d2 = 0.0
-        for comp in range(3):
-            bad += (x[p, comp] - x[p, comp]) + (v[p, comp] - v[p, comp])
-            far = max(far, abs(x[p, comp]))
-            d = x[p, comp] - prev[p, comp]
-            d2 += d * d
-        top = max(top, d2)
-    return bad == 0.0, far > lim[_L_DISTANCE] or math.sqrt(top) / lim[_L_DT] > lim[_L_SPEED]
+def _step_contacts(S, given):
+    """The contacts of the next step into the state (``par.n_con``, ``par.n_self``): none while the cable's reach
+    (:func:`step_margin` + radius) touches no obstacle's bounds, else MuJoCo's query
+    (:func:`~mjcable.solvers.query_kernels.query_obstacles`), and the self contacts with ``par.self_collision``.
+    ``given``: the obstacle contacts are already there (Python queried them). Returns False, with the margin in
+    ``par.margin``, when Python must query this step's obstacle contacts through the bindings (``QUERY_PYTHON``)."""
+    P = S.par[0]
+    obstacles = S.box_lo.shape[0] + S.plane_n.shape[0] > 0
+    n_con = n_self = 0
+    if obstacles or P.self_collision:  # (nothing to measure on a free cable)
+        margin = step_margin(S.v, P.contact_margin, P.dt, P.fall)
+        if obstacles and touches_obstacles(S.x, margin + P.radius, S.box_lo, S.box_hi, S.plane_n, S.plane_p):
+            if given:
+                n_con = P.n_con
+            else:
+                n_con = query_obstacles(S, margin) if P.query == QUERY_COMPILED else -1
+                if n_con < 0:  # the C API's query is unavailable (or its contact array misplaced): Python's
+                    P.query = QUERY_PYTHON
+                    P.margin = margin
+                    return False
+                P.queries += 1
+        if P.host:  # a user world's mj_step must not see the proxy's pairs
+            for p in range(P.pair_start, P.pair_stop):
+                S.pair_margin[p] = PAIRS_OFF
+        if P.self_collision:
+            n_self = self_contacts(S, 2.0 * P.radius + margin)
+    P.n_con, P.n_self = n_con, n_self
+    return True
+
+
+@_inline
+def _end_step(S):
+    """After a step's substeps: the pins' start moves to their target (a gripper move spreads over one step), the
+    clock advances (a user world's ``mj_step`` keeps its own), and the divergence checks
+    (:func:`~mjcable.solvers.monitor_kernels.step_check` into ``par.check``, ``par.check_value``). Returns whether
+    the step passed them."""
+    P = S.par[0]
+    pin_from, pin_to = S.pin_from, S.pin_to
+    for q in range(pin_to.shape[0]):
+        pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
+    if not P.host:
+        P.time += P.dt
+    check, value = step_check(S.x, S.v, S.prev, P.dt, P.max_distance, P.max_speed)
+    P.check, P.check_value = check, value
+    return check == CHECK_OK
+
+
+@_inline
+def _keep_prev(S):
+    x, prev = S.x, S.prev
+    for p in range(x.shape[0]):  # (explicit copies: faster than slice assignments here)
+        prev[p, 0], prev[p, 1], prev[p, 2] = x[p, 0], x[p, 1], x[p, 2]
 
 
 @_nogil
-def run_steps_flat(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-                   clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
-                   row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip, seg, geo, lam, pair,
-                   sgeo, slam, shapes, impulse, n_sub, n_steps, solo, lim, box_lo, box_hi, plane_n, plane_p, prev,
-                   rows, out_x, out_v, clock, path, path_pins, until_release, capi, struct_i32, struct_i64, arena_f64,
-                   arena_i32, pose_pos, pose_quat, pair_margin, segment_of_geom, shape_of_geom, geom_friction, seg_buf,
-                   geo_buf, lam_buf, pair_buf, sgeo_buf, slam_buf, counts):
-    """Up to ``n_steps`` whole steps of ``n_sub`` substeps (:func:`run_substeps`) in one call (``*chain,
-    *contacts, n_sub, n_steps, ...``); the first step uses the given contacts, the later ones query their own
-    (below) or have none. After each step, as the Python step: the pins' start moves to their target (a gripper
-    move spreads over one step), ``clock[0] += lim[dt]`` (``mj_data.time``), x and v go to ``out_x[r]``,
-    ``out_v[r]`` (R, N, 3) when the step's number in this call is ``rows[r]`` (ascending). Grippers follow ``path``
-    (P, G, 3) m: before step ``k`` (``k < P``) the target of pin ``path_pins[g]`` (G,) becomes ``path[k, g]``, as
-    ``Simulator.move_gripper`` before a Python step (P = 0: no path). Returns (steps taken, finite, sockets
-    released, stopped by a check, rows stored), early:
+def run_steps(S, n_steps, given, rows, out_x, out_v, path, path_pins, until_release):
+    """Up to ``n_steps`` whole steps of the solver state ``S`` (a :class:`SolverState`) in one call: each step
+    finds its contacts, takes ``par.substeps`` substeps (in a user world each with the host's ``mj_step``) and passes
+    the divergence checks.
 
-    * after a step whose state is non-finite or runs away (:func:`_step_checks`; ``prev`` (N, 3) holds the
-      positions before it), so that the caller raises naming that step;
-    * before a step that needs a contact query, if ``capi[CAPI_ENABLED]`` is 0 or the query overflows its buffers:
-      the caller queries that step's contacts in Python (and grows the buffers);
-    * after a step in which a socket let go, if ``until_release``.
+    Args:
+      S: the state.
+      n_steps: steps to take.
+      given: the first step's obstacle contacts are in the state already (Python queried them, see ``RUN_QUERY``).
+      rows, out_x, out_v: ``(R,)`` ascending step numbers of this call (1..n_steps) after which x and v go to
+        ``out_x[r]``, ``out_v[r]`` ``(R, N, 3)`` (m, m/s).
+      path, path_pins: gripper targets ``(steps, G, 3)`` m and the pins ``(G,)`` they move: before step ``k``
+        (``k < steps``) the target of pin ``path_pins[g]`` becomes ``path[k, g]`` (steps = 0: no path).
+      until_release: stop after a step in which a socket let go.
 
-    A step after the first needs a query when its reach (:func:`step_margin` + ``lim[radius]``) touches an obstacle
-    (``box_lo``, ``box_hi``, ``plane_n``, ``plane_p``: empty for none), and every step does if ``solo``
-    (self-collision). With ``capi[CAPI_ENABLED]`` the loop queries itself, as the Python step: the obstacles through
-    MuJoCo's C API (:func:`~mjcable.solvers.query_kernels.query_obstacles`: ``capi``, the ``mjData`` views
-    ``struct_i32``, ``struct_i64``, ``arena_f64``, ``arena_i32``, the proxy's ``mocap_pos``/``mocap_quat`` views
-    ``pose_pos``, ``pose_quat`` and ``pair_margin``, the maps ``segment_of_geom``, ``shape_of_geom`` and
-    ``geom_friction``) into ``seg_buf``, ``geo_buf``, ``lam_buf`` (capacity), and self contacts
-    (:func:`~mjcable.solvers.query_kernels.find_self_contacts`) into ``pair_buf``, ``sgeo_buf``, ``slam_buf``.
-    ``counts`` gets the last step's obstacle and self contact numbers (``COUNT_CONTACTS``, ``COUNT_SELF``, when the
-    loop queried them) and the number of obstacle queries it ran (``COUNT_QUERIES``, added)."""
-    S = Chain(x, v, x0, w, mass, react, dx, count, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin,
-              clamp_dir, lam_c, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, row_kind,
-              row_idx, row_p, prow, pslot, band, grad, rhs, fric, anchor, anchor_ob, fp, ip)
-    given = Contacts(seg, geo, lam, pair, sgeo, slam, shapes, impulse)
-    none = Contacts(seg[:0], geo[:0], lam[:0], pair[:0], sgeo[:0], slam[:0], shapes, impulse)
-    obstacles = box_lo.shape[0] + plane_n.shape[0] > 0
+    Returns:
+      (steps taken, outcome ``RUN_*``, sockets released, rows stored). Early outcomes: ``RUN_DIVERGED`` after a
+      step that failed a check (``par.check``), ``RUN_WARNING`` after a step that made the user world's MuJoCo warn
+      (``par.warning``), ``RUN_QUERY`` before a step whose contacts Python must query, ``RUN_RELEASED``.
+    """
+    P = S.par[0]
+    pin_to = S.pin_to
     released, stored = 0, 0
-    C = given
     for k in range(n_steps):
-        if k > 0:
-            margin, near = 0.0, False
-            if obstacles or solo:  # (nothing to measure on a free cable: hang's steps skip it)
-                margin = step_margin(v, lim[_L_MARGIN], lim[_L_DT], lim[_L_FALL])
-                near = obstacles and touches_obstacles(x, margin + lim[_L_RADIUS], box_lo, box_hi, plane_n, plane_p)
-            if not (near or solo):
-                C = none
-                counts[COUNT_CONTACTS], counts[COUNT_SELF] = 0, 0
-            elif capi[CAPI_ENABLED] == 0:
-                return k, True, released, False, stored
-            else:  # the query of ParticleBackend._find_contacts, in the loop
-                n_con = n_self = 0
-                if solo:
-                    n_self = find_self_contacts(x, 2.0 * lim[_L_RADIUS] + margin, pair_buf, sgeo_buf)
-                    if n_self < 0:
-                        return k, True, released, False, stored
-                if near:  # last: a query handed back to Python is counted there, once
-                    n_con = query_obstacles(x, margin, capi, struct_i32, struct_i64, arena_f64, arena_i32, pose_pos,
-                                            pose_quat, pair_margin, segment_of_geom, shape_of_geom, geom_friction,
-                                            lim[_L_RADIUS], seg_buf, geo_buf)
-                    if n_con < 0:
-                        return k, True, released, False, stored
-                    counts[COUNT_QUERIES] += 1
-                C = Contacts(seg_buf[:n_con], geo_buf[:n_con], lam_buf[:n_con], pair_buf[:n_self], sgeo_buf[:n_self],
-                             slam_buf[:n_self], shapes, impulse)
-                counts[COUNT_CONTACTS], counts[COUNT_SELF] = n_con, n_self
+        if not _step_contacts(S, given and k == 0):
+            return k, RUN_QUERY, released, stored
         if k < path.shape[0]:
             for g in range(path_pins.shape[0]):
                 q = path_pins[g]
                 pin_to[q, 0], pin_to[q, 1], pin_to[q, 2] = path[k, g, 0], path[k, g, 1], path[k, g, 2]
-        for p in range(x.shape[0]):  # (explicit copies: faster than slice assignments here)
-            prev[p, 0], prev[p, 1], prev[p, 2] = x[p, 0], x[p, 1], x[p, 2]
-        # run_substeps(S, C, n_sub, PHASE_ALL, 0), its finite check below: written out with the flat arrays, which
-        # ran hang's plain substeps 5-15 % faster than the same code through S's fields (measured, numba 0.68)
-        let_go = 0
-        if is_plain(S, C):
-            for sub in range(n_sub):
-                let_go += plain_substep(x, v, x0, w, mass, react, rest, lam_s, pin_p, pin_from, pin_to, pin_active,
-                                        pin_release, pin_force, pin_sum, fp, ip, sub, n_sub)
-        else:
-            for sub in range(n_sub):
-                begin_substep(S, C, sub, n_sub)
-                for _ in range(ip[_I_ITER]):
-                    iterate(S, C)
-                let_go += end_substep(S, C)
+        _keep_prev(S)
+        let_go = _substeps(S)
         released += let_go
-        for q in range(pin_to.shape[0]):
-            pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
-        clock[0] += lim[_L_DT]
+        passed = _end_step(S)
         if stored < rows.shape[0] and rows[stored] == k + 1:
-            out_x[stored, :, :] = x
-            out_v[stored, :, :] = v
+            out_x[stored, :, :] = S.x
+            out_v[stored, :, :] = S.v
             stored += 1
-        finite, runaway = _step_checks(x, v, prev, lim)
-        if not finite or runaway:
-            return k + 1, finite, released, True, stored
+        if P.warning >= 0:
+            return k + 1, RUN_WARNING, released, stored
+        if not passed:
+            return k + 1, RUN_DIVERGED, released, stored
         if until_release and let_go > 0:
-            return k + 1, True, released, False, stored
-    return n_steps, True, released, False, stored
+            return k + 1, RUN_RELEASED, released, stored
+    return n_steps, RUN_DONE, released, stored
+
+
+@_jit
+def run_phase(S, phase, sub, n_sub):
+    """One piece of a step, for a Python caller that acts between iterations (PBD's user constraints), the pieces
+    :func:`run_steps` takes: ``STEP_BEGIN`` (the step's contacts, :func:`_step_contacts`, ``sub`` ≠ 0 if Python
+    queried them; returns 0 if Python must query them first), ``PHASE_HOST_BEFORE``/``PHASE_HOST_AFTER`` (a user
+    world's coupling around substep ``sub`` of ``n_sub``; after: returns 1 if a MuJoCo warning stopped the step),
+    ``PHASE_BEGIN``, ``PHASE_ITERATE``, ``PHASE_END`` (the substep's pieces; end: returns the sockets released) and
+    ``STEP_END`` (:func:`_end_step`; returns 1 if the step passed the checks)."""
+    if phase == STEP_BEGIN:
+        ok = _step_contacts(S, sub != 0)
+        if ok:
+            _keep_prev(S)
+        return 1 if ok else 0
+    if phase == PHASE_HOST_BEFORE:
+        if sub == 0:
+            host_begin_step(S)
+        host_before(S, sub, n_sub)
+        return 0
+    if phase == PHASE_HOST_AFTER:
+        stopped = host_after(S)
+        if not stopped and sub == n_sub - 1:
+            host_end_step(S)
+        return 1 if stopped else 0
+    if phase == PHASE_BEGIN:
+        begin_substep(S, sub, n_sub)
+        return 0
+    if phase == PHASE_ITERATE:
+        iterate(S)
+        return 0
+    if phase == PHASE_END:
+        return end_substep(S)
+    return 1 if _end_step(S) else 0

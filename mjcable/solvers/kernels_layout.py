@@ -1,81 +1,283 @@
-"""The particle solvers' data layout, shared by all kernel files: indices into the parameter arrays, the codes of
-orders, bending models, direct-solve rows and substep phases, the solver state (:class:`Chain`) and the contacts
-(:class:`Contacts`) named tuples, and the tolerances that several kernels use.
+"""The particle solvers' data layout, shared by all kernel files: the solver state (:class:`SolverState`, one numba
+``structref`` with named fields), its parameter record (:data:`PARAMS`), the codes of orders, bending models,
+direct-solve rows, substep phases and run outcomes, and the tolerances that several kernels use.
 
-Numba freezes these module constants into the compiled kernels that read them, so this file is a kernel file for the
-cache (its name matches ``*kernels*``: a change here recompiles every kernel, see
-:mod:`mjcable.solvers._kernel_cache`). Re-exported by :mod:`mjcable.solvers.kernels`.
+The state is what ``mjData`` is to MuJoCo: one object handed whole to every driver, holding the chain (positions,
+velocities, inverse masses, rest lengths, multipliers), the pins and clamps, the direct order's banded system, the
+contacts (buffers grown on demand, with their counts), the contact query's view of the proxy's ``mjData`` and the
+user world's host links, plus one parameter record ``par`` (a length-1 numpy structured array: numba reads and
+writes its fields by name, Python sees the same memory). Python keeps numpy views of the same arrays
+(:func:`mjcable.solvers.state.new_state`), so that reading positions or pin forces costs no compiled call.
+
+Numba freezes module constants and the state's type into the compiled kernels that read them, so this file is a
+kernel file for the cache (its name matches ``*kernels*``: a change here recompiles every kernel, see
+:mod:`mjcable.solvers._kernel_cache`).
 """
 
 from __future__ import annotations
 
-from collections import namedtuple
+import numba
+import numpy as np
+from numba import types
+from numba.experimental import structref
 
-# Indices into Chain.fp (floats) and Chain.ip (integers): named, so that driver and kernels agree.
-FP = dict(h=0, damp=1, gx=2, gy=3, gz=4, alpha_s=5, alpha_b=6, alpha_c=7, k_s=8, k_b=9, k_c=10, inv_l0sq=11,
-          omega=12, radius=13, mu_self=14)
-IP = dict(iterations=0, order=1, bending=2, sqrt=3, bandwidth=4, direct_all=5, substeps=6)
-# Indices into run_steps_flat's ``lim`` (floats): step (s), divergence limits (m, m/s), the contact query's terms.
-LIM = dict(dt=0, max_distance=1, max_speed=2, contact_margin=3, fall=4, radius=5)
-N_FP = len(FP)
-N_IP = len(IP)
-_F_H, _F_DAMP, _F_GX, _F_GY, _F_GZ = 0, 1, 2, 3, 4
-_F_ALPHA_S, _F_ALPHA_B, _F_ALPHA_C, _F_K_S, _F_K_B, _F_K_C = 5, 6, 7, 8, 9, 10
-_F_INV_L0SQ, _F_OMEGA, _F_RADIUS, _F_MU_SELF = 11, 12, 13, 14
-_I_ITER, _I_ORDER, _I_BEND, _I_SQRT, _I_BW, _I_DIRECT_ALL, _I_SUBSTEPS = 0, 1, 2, 3, 4, 5, 6
-_L_DT, _L_DISTANCE, _L_SPEED, _L_MARGIN, _L_FALL, _L_RADIUS = 0, 1, 2, 3, 4, 5
+from mjcable.solvers._kernel_cache import jit as _jit
+
+__all__ = ["SolverState", "SolverStateType", "STATE_TYPE", "PARAMS", "FIELDS", "assemble", "contact_buffers"]
 
 ORDER_GAUSS_SEIDEL, ORDER_JACOBI, ORDER_DIRECT = 0, 1, 2
 BEND_NONE, BEND_CURVATURE, BEND_DISTANCE = 0, 1, 2
 ROW_STRETCH, ROW_CURVATURE, ROW_DISTANCE, ROW_CLAMP = 0, 1, 2, 3
+# How a step's contacts are queried (PARAMS.query): none (no obstacle), by the compiled loop through MuJoCo's C API,
+# or by Python through the bindings (the C API's layout check failed): the loop then returns before such a step.
+QUERY_NONE, QUERY_COMPILED, QUERY_PYTHON = 0, 1, 2
+# What a run of steps stopped on (kernels.run_steps): all steps taken, a divergence check, a step that needs a
+# Python query, a socket that let go (until_release), a MuJoCo warning of the user world.
+RUN_DONE, RUN_DIVERGED, RUN_QUERY, RUN_RELEASED, RUN_WARNING = 0, 1, 2, 3, 4
+# The divergence checks of a step (monitor_kernels.step_check): passed, non-finite state, a particle too far from
+# the origin, a particle too fast.
+CHECK_OK, CHECK_NON_FINITE, CHECK_DISTANCE, CHECK_SPEED = 0, 1, 2, 3
+# The pieces of a step a Python caller takes one by one (PBD's user constraints: kernels.run_phase).
+PHASE_BEGIN, PHASE_ITERATE, PHASE_END, PHASE_HOST_BEFORE, PHASE_HOST_AFTER = 0, 1, 2, 3, 4
 # MuJoCo's geom type codes (mujoco.mjtGeom) that the contact kernels measure exactly.
 GEOM_PLANE, GEOM_SPHERE, GEOM_CAPSULE, GEOM_ELLIPSOID, GEOM_CYLINDER, GEOM_BOX = 0, 2, 3, 4, 5, 6
-# Columns of Contacts.shapes (B, 16), one row per obstacle geom: type, size (3), pos (3), row-major rotation (9).
+# Columns of SolverState.shapes (B, 16), one row per obstacle geom: type, size (3), pos (3), row-major rotation (9).
 SH_TYPE, SH_SIZE, SH_POS, SH_ROT, N_SH = 0, 1, 4, 7, 16
-# Columns of Chain.fric (N, 13), per particle and substep: its share of the contacts' Σ Δλₙ, their largest μ,
+# Columns of SolverState.fric (N, 13), per particle and substep: its share of the contacts' Σ Δλₙ, their largest μ,
 # slid (0/1), Σ Δλₙ n (3), its friction impulse (3), Σ share · n over its pressing contacts (3), the obstacle
 # row of its last contact (kept across substeps).
 FR_FN, FR_MU, FR_SLID, FR_NX, FR_FT, FR_GN, FR_OB, N_FR = 0, 1, 2, 3, 6, 9, 12, 13
-PHASE_ALL, PHASE_BEGIN, PHASE_ITERATE, PHASE_END = 0, 1, 2, 3
-# Entries of run_steps_flat's ``capi`` (int64): whether the loop queries contacts itself (0: it returns to Python
-# for every query), the addresses of mj_kinematics, mj_collision, the proxy's mjModel and mjData, the index of
-# mjData.ncon in its int32 words and of mjData.contact in its int64 words, the arena's address, sizeof(mjContact) and
-# the byte offsets of its dist, pos, frame and geom (mjcable.solvers.capi.Layout), the cable's pairs' first and
-# past-the-last rows of pair_margin.
-CAPI = dict(enabled=0, kinematics=1, collision=2, model=3, data=4, ncon=5, contact=6, arena=7, stride=8, dist=9, pos=10,
-            frame=11, geom=12, pair_start=13, pair_stop=14)
-(CAPI_ENABLED, CAPI_KINEMATICS, CAPI_COLLISION, CAPI_MODEL, CAPI_DATA, CAPI_NCON, CAPI_CONTACT, CAPI_ARENA,
- CAPI_STRIDE, CAPI_DIST, CAPI_POS, CAPI_FRAME, CAPI_GEOM, CAPI_PAIR_START, CAPI_PAIR_STOP) = range(15)
-N_CAPI = len(CAPI)
-# Entries of run_steps_flat's ``counts`` (int64): the last step's obstacle and self contacts, contact queries run.
-COUNT_CONTACTS, COUNT_SELF, COUNT_QUERIES = 0, 1, 2
-# Columns of Chain.pin_sum (P, 4): the sum of a pin's substep forces over the current step (N) and how many substeps
-# it holds; the step's mean force is their ratio (kernels.end_substep).
-PS_F, PS_N, N_PS = 0, 3, 4
+# Columns of SolverState.impulse (B, 6), summed over a substep by contact_kernels.collect_impulses: Σ Δλ ∇C (kg·m;
+# ÷ h is the momentum the contacts gave the cable, ÷ h² the force), and its moment Σ point × impulse about the origin.
+IM_F, IM_M = 0, 3
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
 _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
+PAIRS_OFF = -1e10  # m: a pair margin no pair of geoms is closer than (switches the cable's pairs off)
 
-# The solver state, owned by the driver (mjcable.solvers.state) and passed whole to the driver kernels.
-Chain = namedtuple("Chain", [
-    "x", "v", "x0", "w", "mass", "react", "dx", "count",  # particles (N, 3) / (N,)
-    "rest", "lam_s",  # stretch constraint i joins particles i, i+1: rest length (n,), multiplier (n,)
-    "rest_d", "lam_d",  # distance bending b joins b, b+2: rest 2 l₀ (n-1,), multiplier (n-1,)
-    "lam_b",  # curvature bending at particle b+1: multipliers (n-1, 3)
-    "clamp_pq", "clamp_pin", "clamp_dir", "lam_c",  # clamps (K, 2) [pin particle, neighbour], (K,), (K, 2, 3), (K, 2)
-    "pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force",  # pins (P,), (P, 3), ..., (P, 3)
-    "pin_sum",  # (P, 4): per pin, Σ of the step's substep forces so far (N, columns PS_F..+2), their count (PS_N)
-    "row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs",  # direct order: the banded system
-    "fric", "anchor", "anchor_ob",  # friction: per-particle sums (N, N_FR), anchors (N, 3) in obstacle anchor_ob (N,)
-    "fp", "ip",  # parameters (N_FP,), (N_IP,)
+#: The solver's scalars, one record (``SolverState.par``, a length-1 array of this dtype).
+PARAMS = np.dtype([
+    # the substep: h (s), damping factor e^{−c h}, gravity (m/s²)
+    ("h", "f8"), ("damp", "f8"), ("gx", "f8"), ("gy", "f8"), ("gz", "f8"),
+    # XPBD compliances (stretch m/N, curvature 1/(N·m³) or distance m/N, clamp 1/(N·m³)) and per-iteration factors
+    ("alpha_s", "f8"), ("alpha_b", "f8"), ("alpha_c", "f8"), ("k_s", "f8"), ("k_b", "f8"), ("k_c", "f8"),
+    ("inv_l0sq", "f8"),  # 1/m²: 1 / rest segment length²
+    ("omega", "f8"),  # Jacobi relaxation
+    ("radius", "f8"), ("mu_self", "f8"),  # m, the cable's radius; its own Coulomb μ (self contacts)
+    ("iterations", "i8"), ("substeps", "i8"), ("order", "i8"), ("bending", "i8"),  # ORDER_*, BEND_*
+    ("sqrt_approx", "?"), ("direct_all", "?"), ("bandwidth", "i8"),  # the direct order's system
+    # the step: dt (s), divergence limits (m from the origin, m/s), the contact query's margin (m) and what gravity
+    # adds to one step's travel, ½ g dt² (m)
+    ("dt", "f8"), ("max_distance", "f8"), ("max_speed", "f8"), ("contact_margin", "f8"), ("fall", "f8"),
+    ("self_collision", "?"), ("query", "i8"),  # QUERY_*
+    # MuJoCo's C API (mjcable.solvers.capi): entry points, the proxy's (or user world's) mjModel and mjData, the word
+    # indices of mjData.ncon (int32) and mjData.contact (int64), the arena's address, sizeof(mjContact) and the
+    # byte offsets of its dist, pos, frame and geom, the cable's pairs' rows of pair_margin
+    ("fn_kinematics", "i8"), ("fn_collision", "i8"), ("model", "i8"), ("data", "i8"), ("ncon_word", "i8"),
+    ("contact_word", "i8"), ("arena", "i8"), ("contact_size", "i8"), ("off_dist", "i8"), ("off_pos", "i8"),
+    ("off_frame", "i8"), ("off_geom", "i8"), ("pair_start", "i8"), ("pair_stop", "i8"),
+    # the user world's host (mjcable.backends.host): whether there is one, mj_step, mj_getState, mj_setState, mj_jac,
+    # mj_solveM, the state signature (mjSTATE_INTEGRATION), nv and the state's size
+    ("host", "?"), ("fn_step", "i8"), ("fn_get_state", "i8"), ("fn_set_state", "i8"), ("fn_jac", "i8"),
+    ("fn_solve_m", "i8"), ("state_sig", "i8"), ("nv", "i8"), ("nstate", "i8"),
+    # read-outs: the last step's obstacle and self contacts, queries run, the query margin a step asked Python for (m),
+    # the MuJoCo warning that stopped a step (−1: none), the check that stopped one (CHECK_*) and what it measured,
+    # simulated time (s)
+    ("n_con", "i8"), ("n_self", "i8"), ("queries", "i8"), ("margin", "f8"), ("warning", "i8"), ("check", "i8"),
+    ("check_value", "f8"), ("time", "f8"),
 ])
-# Contacts found once per step: obstacle contacts and self contacts, re-projected in every substep and iteration.
-Contacts = namedtuple("Contacts", [
-    "seg", "geo", "lam",  # obstacle contacts: segment (C,), [s, n₀ (3), offset, μ, shape row] (C, 7), λₙ (C,)
-    "pair", "sgeo", "slam",  # self contacts: segments (S, 2), [s, t, nx, ny, nz] (S, 5), [λₙ, λ_t] (S, 2)
-    "shapes",  # the obstacles' shapes (B, N_SH)
-    "impulse",  # per obstacle row, the substep's contact impulse on the cable (B, 6) or (0, 6) to skip it: IM_*
-])
-# Columns of Contacts.impulse (B, 6), summed over a substep by contact_kernels.collect_impulses: Σ Δλ ∇C (kg·m;
-# ÷ h is the momentum the contacts gave the cable, ÷ h² the force), and its moment Σ point × impulse about the origin.
-IM_F, IM_M = 0, 3
+
+
+def _a(dtype, ndim):
+    return types.Array(dtype, ndim, "C")
+
+
+_F1, _F2, _F3, _I1, _I2, _B1 = (_a(types.float64, 1), _a(types.float64, 2), _a(types.float64, 3),
+                                _a(types.int64, 1), _a(types.int64, 2), _a(types.boolean, 1))
+
+#: The state's fields: name, numba type, and what it holds (N particles, n = N − 1 segments, P pins, K clamps, R
+#: direct rows, B obstacles, C/S obstacle/self contact capacity, L body pins, G moving geoms).
+FIELDS = (
+    # the chain
+    ("x", _F2, "(N, 3) m positions"), ("v", _F2, "(N, 3) m/s velocities"), ("x0", _F2, "(N, 3) m substep start"),
+    ("w", _F1, "(N,) 1/kg inverse masses (0: held)"), ("mass", _F1, "(N,) kg lumped masses"),
+    ("react", _F2, "(N, 3) kg·m Σ ∇C Δλ a held particle collects"), ("dx", _F2, "(N, 3) m Jacobi corrections"),
+    ("count", _F1, "(N,) Jacobi constraint counts"), ("prev", _F2, "(N, 3) m positions before the step"),
+    ("rest", _F1, "(n,) m stretch rest lengths"), ("lam_s", _F1, "(n,) stretch multipliers"),
+    ("rest_d", _F1, "(n-1,) m distance-bending rest lengths"), ("lam_d", _F1, "(n-1,) their multipliers"),
+    ("lam_b", _F2, "(n-1, 3) curvature multipliers"),
+    # clamps and pins
+    ("clamp_pq", _I2, "(K, 2) [pinned particle, neighbour]"), ("clamp_pin", _I1, "(K,) the clamp's pin"),
+    ("clamp_dir", _F3, "(K, 2, 3) the two clamped directions"), ("lam_c", _F2, "(K, 2) clamp multipliers"),
+    ("pin_p", _I1, "(P,) pinned particles"), ("pin_from", _F2, "(P, 3) m target at the step's start"),
+    ("pin_to", _F2, "(P, 3) m target at its end"), ("pin_active", _B1, "(P,) holds (sockets let go)"),
+    ("pin_release", _F1, "(P,) N release force (inf: never)"), ("pin_force", _F2, "(P, 3) N last substep's force"),
+    ("pin_sum", _F2, "(P, 3) N Σ of the step's substep forces"), ("pin_count", _F1, "(P,) substeps in pin_sum"),
+    # the direct order's banded system
+    ("row_kind", _I1, "(R,) ROW_*"), ("row_idx", _I1, "(R,) constraint index"), ("row_p", _I2, "(R, 3) particles"),
+    ("prow", _I2, "(N, W) rows touching a particle"), ("pslot", _I2, "(N, W) the particle's slot in them"),
+    ("band", _F2, "(R, bw + 1) lower band"), ("grad", _F3, "(R, 3, 3) row gradients"), ("rhs", _F1, "(R,)"),
+    # friction and contacts
+    ("fric", _F2, "(N, N_FR) per-particle friction sums"), ("anchor", _F2, "(N, 3) friction anchors"),
+    ("anchor_ob", _I1, "(N,) the anchors' obstacle rows"),
+    ("seg", _I1, "(C,) contact segments"), ("geo", _F2, "(C, 7) [s, n₀, offset, μ, shape row]"),
+    ("lam", _F1, "(C,) contact multipliers"), ("pair", _I2, "(S, 2) self-contact segments"),
+    ("sgeo", _F2, "(S, 5) [s, t, n]"), ("slam", _F2, "(S, 2) [λₙ, λ_t]"),
+    ("shapes", _F2, "(B, N_SH) obstacle shapes"), ("impulse", _F2, "(B, 6) or (0, 6) contact impulses per substep"),
+    # the contact query: static obstacles' bounds, mjData views (struct and arena), the proxy's poses and margins,
+    # geom maps, moving geoms and their poses
+    ("box_lo", _F2, "(B', 3) m"), ("box_hi", _F2, "(B', 3) m"), ("plane_n", _F2, "(F, 3)"), ("plane_p", _F2, "(F, 3) m"),
+    ("struct_i32", _a(types.int32, 1), "mjData as int32 words"), ("struct_i64", _I1, "mjData as int64 words"),
+    ("arena_f64", _F1, "mjData's arena as float64"), ("arena_i32", _a(types.int32, 1), "mjData's arena as int32"),
+    ("pose_pos", _F2, "(n, 3) proxy mocap_pos"), ("pose_quat", _F2, "(n, 4) proxy mocap_quat"),
+    ("pair_margin", _F1, "(npair,) mjModel.pair_margin"), ("segment_of_geom", _I1, "(ngeom,) −1: none"),
+    ("shape_of_geom", _I1, "(ngeom,) −1: none"), ("geom_friction", _F2, "(ngeom, 3)"),
+    ("moving", _I2, "(G, 2) [geom, shape row] of moving obstacles"), ("geom_xpos", _F2, "mjData.geom_xpos"),
+    ("geom_xmat", _F2, "mjData.geom_xmat"),
+    # the user world's host: body pins (L), their clamps, mjData views, the warnings that stop a step, two-way rows
+    ("link_pin", _I1, "(L,) pin"), ("link_particle", _I1, "(L,)"), ("link_neighbour", _I1, "(L,)"),
+    ("link_body", _I1, "(L,)"), ("link_site", _I1, "(L,)"), ("link_clamp", _I2, "(K', 2) [clamp row, body]"),
+    ("clamp_local", _F3, "(K', 3, 2) clamp directions in the body"), ("site_xpos", _F2, "mjData.site_xpos"),
+    ("xipos", _F2, "mjData.xipos"), ("xmat", _F2, "mjData.xmat"), ("xfrc_applied", _F2, "mjData.xfrc_applied"),
+    ("warning_number", types.Array(types.int32, 1, "A"), "mjData.warning.number (strided)"), ("bad", _I1, "(W,) warnings that stop"),
+    ("wrench_rows", _I1, "(R',) obstacle rows on dynamic bodies"), ("wrench_bodies", _I1, "(R',) their bodies"),
+    ("contact_wrench", _F2, "(nbody, 6) N, N·m"),
+    # the host's scratch (sized at construction)
+    ("saved", _F1, "(nstate,)"), ("jacp", _F2, "(3, nv)"), ("jn", _F2, "(1, nv)"), ("solved", _F2, "(1, nv)"),
+    ("start_from", _F2, "(P, 3)"), ("start_to", _F2, "(P, 3)"), ("target", _F2, "(P, 3)"), ("p0", _F2, "(L, 3)"),
+    ("arm", _F2, "(L, 3)"), ("free", _F2, "(L, 3)"), ("free_w", _F1, "(L,)"), ("force", _F2, "(L, 3)"),
+    ("applied", _F2, "(L, 6)"),
+    ("par", _a(numba.from_dtype(PARAMS), 1), "(1,) PARAMS"),
+)
+
+
+@structref.register
+class SolverStateType(types.StructRef):
+    """numba's type of :class:`SolverState`."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class SolverState(structref.StructRefProxy):
+    """The particle solver's state (see the module docstring); built by :func:`mjcable.solvers.state.new_state`,
+    read from Python through the numpy views it returns beside it."""
+
+
+structref.define_boxing(SolverStateType, SolverState)
+STATE_TYPE = SolverStateType([(name, typ) for name, typ, _ in FIELDS])
+
+
+
+
+# -- assembly: the state's parts, each set by one function (numba sets a structref's fields by name only) -----------
+
+
+@_jit
+def _chain(S, x, v, x0, w, mass, react, dx, count, prev, par):
+    S.x, S.v, S.x0, S.w, S.mass, S.react, S.dx, S.count, S.prev, S.par = x, v, x0, w, mass, react, dx, count, prev, par
+
+
+@_jit
+def _constraints(S, rest, lam_s, rest_d, lam_d, lam_b, clamp_pq, clamp_pin, clamp_dir, lam_c):
+    S.rest, S.lam_s, S.rest_d, S.lam_d, S.lam_b = rest, lam_s, rest_d, lam_d, lam_b
+    S.clamp_pq, S.clamp_pin, S.clamp_dir, S.lam_c = clamp_pq, clamp_pin, clamp_dir, lam_c
+
+
+@_jit
+def _pins(S, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_sum, pin_count):
+    S.pin_p, S.pin_from, S.pin_to, S.pin_active = pin_p, pin_from, pin_to, pin_active
+    S.pin_release, S.pin_force, S.pin_sum, S.pin_count = pin_release, pin_force, pin_sum, pin_count
+
+
+@_jit
+def _direct(S, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs):
+    S.row_kind, S.row_idx, S.row_p, S.prow, S.pslot, S.band, S.grad, S.rhs = (row_kind, row_idx, row_p, prow, pslot,
+                                                                             band, grad, rhs)
+
+
+@_jit
+def _contacts(S, fric, anchor, anchor_ob, seg, geo, lam, pair, sgeo, slam, shapes, impulse):
+    S.fric, S.anchor, S.anchor_ob = fric, anchor, anchor_ob
+    S.seg, S.geo, S.lam, S.pair, S.sgeo, S.slam, S.shapes, S.impulse = seg, geo, lam, pair, sgeo, slam, shapes, impulse
+
+
+@_jit
+def _query(S, box_lo, box_hi, plane_n, plane_p, struct_i32, struct_i64, arena_f64, arena_i32, pose_pos, pose_quat):
+    S.box_lo, S.box_hi, S.plane_n, S.plane_p = box_lo, box_hi, plane_n, plane_p
+    S.struct_i32, S.struct_i64, S.arena_f64, S.arena_i32, S.pose_pos, S.pose_quat = (struct_i32, struct_i64, arena_f64,
+                                                                                   arena_i32, pose_pos, pose_quat)
+
+
+@_jit
+def _geoms(S, pair_margin, segment_of_geom, shape_of_geom, geom_friction, moving, geom_xpos, geom_xmat):
+    S.pair_margin, S.segment_of_geom, S.shape_of_geom, S.geom_friction = (pair_margin, segment_of_geom, shape_of_geom,
+                                                                          geom_friction)
+    S.moving, S.geom_xpos, S.geom_xmat = moving, geom_xpos, geom_xmat
+
+
+@_jit
+def _links(S, link_pin, link_particle, link_neighbour, link_body, link_site, link_clamp, clamp_local):
+    S.link_pin, S.link_particle, S.link_neighbour, S.link_body, S.link_site = (link_pin, link_particle, link_neighbour,
+                                                                               link_body, link_site)
+    S.link_clamp, S.clamp_local = link_clamp, clamp_local
+
+
+@_jit
+def _world(S, site_xpos, xipos, xmat, xfrc_applied, warning_number, bad, wrench_rows, wrench_bodies, contact_wrench):
+    S.site_xpos, S.xipos, S.xmat, S.xfrc_applied, S.warning_number, S.bad = (site_xpos, xipos, xmat, xfrc_applied,
+                                                                            warning_number, bad)
+    S.wrench_rows, S.wrench_bodies, S.contact_wrench = wrench_rows, wrench_bodies, contact_wrench
+
+
+@_jit
+def _scratch(S, saved, jacp, jn, solved, start_from, start_to, target, p0, arm, free, free_w):
+    S.saved, S.jacp, S.jn, S.solved, S.start_from, S.start_to, S.target = (saved, jacp, jn, solved, start_from,
+                                                                           start_to, target)
+    S.p0, S.arm, S.free, S.free_w = p0, arm, free, free_w
+
+
+@_jit
+def _scratch_forces(S, force, applied):
+    S.force, S.applied = force, applied
+
+
+@_jit
+def _new():
+    return structref.new(STATE_TYPE)
+
+
+#: the parts in the order :func:`assemble` sets them, each with its setter: every field of FIELDS once
+_PARTS = (
+    (_chain, ("x", "v", "x0", "w", "mass", "react", "dx", "count", "prev", "par")),
+    (_constraints, ("rest", "lam_s", "rest_d", "lam_d", "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c")),
+    (_pins, ("pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force", "pin_sum", "pin_count")),
+    (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs")),
+    (_contacts, ("fric", "anchor", "anchor_ob", "seg", "geo", "lam", "pair", "sgeo", "slam", "shapes", "impulse")),
+    (_query, ("box_lo", "box_hi", "plane_n", "plane_p", "struct_i32", "struct_i64", "arena_f64", "arena_i32",
+              "pose_pos", "pose_quat")),
+    (_geoms, ("pair_margin", "segment_of_geom", "shape_of_geom", "geom_friction", "moving", "geom_xpos",
+              "geom_xmat")),
+    (_links, ("link_pin", "link_particle", "link_neighbour", "link_body", "link_site", "link_clamp", "clamp_local")),
+    (_world, ("site_xpos", "xipos", "xmat", "xfrc_applied", "warning_number", "bad", "wrench_rows", "wrench_bodies",
+              "contact_wrench")),
+    (_scratch, ("saved", "jacp", "jn", "solved", "start_from", "start_to", "target", "p0", "arm", "free", "free_w")),
+    (_scratch_forces, ("force", "applied")),
+)
+assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
+
+
+def assemble(arrays: dict) -> SolverState:
+    """A :class:`SolverState` holding ``arrays`` (field name → C-contiguous numpy array of the field's type, one for
+    every field of :data:`FIELDS`); the state and the arrays share their memory."""
+    S = _new()
+    for setter, names in _PARTS:
+        setter(S, *(arrays[n] for n in names))
+    return S
+
+
+@_jit
+def contact_buffers(S):
+    """The contact buffers (``seg``, ``geo``, ``lam``, ``pair``, ``sgeo``, ``slam``): the compiled query replaces
+    them when they must grow, so Python asks for them rather than keeping its own."""
+    return S.seg, S.geo, S.lam, S.pair, S.sgeo, S.slam

@@ -1,9 +1,9 @@
-"""Contact queries and the proxy's poses, ``@njit(cache=True)``: called from Python once per step
-(:mod:`mjcable.backends.particle`, :mod:`mjcable.solvers.contacts`) and, inlined, from the whole-step driver
-(:func:`mjcable.solvers.kernels.run_steps_flat`), which queries between steps through MuJoCo's C API
-(:func:`query_obstacles`, :mod:`mjcable.solvers.capi`). Their numba cache is stamped with all kernel files
-(:mod:`mjcable.solvers._kernel_cache`). The bounding-box test that skips the query (``touches_obstacles``) lives in
-:mod:`mjcable.solvers.kernels`.
+"""Contact queries and the proxy's poses, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`), called by the
+step driver (:func:`mjcable.solvers.kernels.run_steps`), which queries between steps through MuJoCo's C API
+(:func:`query_obstacles`, :mod:`mjcable.solvers.capi`), and by the Python fallback where that is unavailable
+(:meth:`mjcable.solvers.contacts.ObstacleContacts.query`: :func:`contacts_from_mujoco` on the bindings' contacts).
+Both turn MuJoCo's contacts into the solver's with :func:`_take_contact`. The bounding-box test that skips the query
+(``touches_obstacles``) lives in :mod:`mjcable.solvers.kernels`.
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -19,11 +19,10 @@ from numba import types
 from numba.extending import intrinsic
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
-from mjcable.solvers.kernels_layout import (CAPI_ARENA, CAPI_COLLISION, CAPI_CONTACT, CAPI_DATA, CAPI_DIST,
-                                            CAPI_FRAME, CAPI_GEOM, CAPI_KINEMATICS, CAPI_MODEL, CAPI_NCON,
-                                            CAPI_PAIR_START, CAPI_PAIR_STOP, CAPI_POS, CAPI_STRIDE)
+from mjcable.solvers.kernels_layout import SH_POS, SH_ROT
 
-__all__ = ["find_self_contacts", "contacts_from_mujoco", "query_obstacles", "proxy_poses", "segment_closest"]
+__all__ = ["find_self_contacts", "self_contacts", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
+           "refresh_moving", "proxy_poses", "segment_closest"]
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction
 _PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
@@ -182,43 +181,82 @@ def _call_model_data(typingctx, fn, model, data):
     return types.void(fn, model, data), codegen
 
 
+@_jit
+def reserve_contacts(S, capacity):
+    """Grow the obstacle-contact buffers ``S.seg``, ``S.geo``, ``S.lam`` to hold at least ``capacity`` contacts (to
+    twice that, when they must grow)."""
+    if capacity > S.seg.shape[0]:
+        S.seg = np.zeros(2 * capacity, dtype=np.int64)
+        S.geo = np.zeros((2 * capacity, 7))
+        S.lam = np.zeros(2 * capacity)
+
+
+@_jit
+def self_contacts(S, reach):
+    """Self contacts of the chain ``S.x`` closer than ``reach`` metres (:func:`find_self_contacts`) into ``S.pair``,
+    ``S.sgeo`` (grown until they hold them all); returns their number."""
+    count = find_self_contacts(S.x, reach, S.pair, S.sgeo)
+    while count < 0:
+        cap = max(2 * S.pair.shape[0], 1)
+        S.pair = np.zeros((cap, 2), dtype=np.int64)
+        S.sgeo = np.zeros((cap, 5))
+        S.slam = np.zeros((cap, 2))
+        count = find_self_contacts(S.x, reach, S.pair, S.sgeo)
+    return count
+
+
 @_inline
-def query_obstacles(x, margin, capi, struct_i32, struct_i64, arena_f64, arena_i32, pose_pos, pose_quat, pair_margin,
-                    segment_of_geom, shape_of_geom, geom_friction, radius, seg, geo):
-    """What :meth:`mjcable.solvers.contacts.ObstacleContacts.query` does, through MuJoCo's C API: pose the proxy
-    capsules from ``x`` (:func:`proxy_poses` into the ``mocap_pos``, ``mocap_quat`` views ``pose_pos``,
-    ``pose_quat``), ``mj_kinematics``, the cable's pair margins (``pair_margin`` rows ``capi[CAPI_PAIR_START]`` to
-    ``capi[CAPI_PAIR_STOP]``) set to ``margin`` (m), ``mj_collision``, then MuJoCo's contacts (``ncon`` and the
-    contact array, read from the ``mjData`` struct and arena views at the offsets in ``capi``:
-    :class:`mjcable.solvers.capi.Layout`) into ``seg``, ``geo`` as :func:`contacts_from_mujoco`. Returns their
-    number, or −1 when MuJoCo found more contacts than ``seg`` holds (the caller grows it and queries again) or
-    when the contact array does not lie, aligned, inside the arena (the caller queries through the bindings).
+def refresh_moving(S):
+    """The moving obstacles' rows of ``S.shapes`` from the world's current geom poses (``S.geom_xpos``,
+    ``S.geom_xmat``)."""
+    moving, shapes = S.moving, S.shapes
+    for r in range(moving.shape[0]):
+        g, row = moving[r, 0], moving[r, 1]
+        for c in range(3):
+            shapes[row, SH_POS + c] = S.geom_xpos[g, c]
+        for c in range(9):
+            shapes[row, SH_ROT + c] = S.geom_xmat[g, c]
+
+
+@_jit
+def query_obstacles(S, margin):
+    """The cable's contacts with the obstacles closer than ``margin`` metres, through MuJoCo's C API: pose the proxy
+    capsules from ``S.x`` (:func:`proxy_poses` into the ``mocap_pos``, ``mocap_quat`` views), ``mj_kinematics``,
+    the cable's pair margins (``S.pair_margin`` rows ``par.pair_start`` to ``par.pair_stop``) set to ``margin``,
+    ``mj_collision``, then MuJoCo's contacts (``ncon`` and the contact array, read from the ``mjData`` struct and
+    arena views at the offsets of :class:`mjcable.solvers.capi.Layout`) into ``S.seg``, ``S.geo`` as
+    :func:`contacts_from_mujoco` (grown to hold them). Returns their number, or −1 when the contact array does not
+    lie, aligned, inside the arena (the caller queries through the bindings from then on).
 
     A MuJoCo *error* in these calls (``mju_error``, e.g. the arena running out) cannot become a Python exception:
-    called by address, MuJoCo's own handler runs, prints the error and ends the process. The proxy's arena holds
-    tens of thousands of contacts, and each :meth:`~mjcable.backends.particle.ParticleBackend.run` call queries its
-    first step through the bindings, where an error raises ``mujoco.FatalError``."""
-    proxy_poses(x, pose_pos, pose_quat)
-    _call_model_data(capi[CAPI_KINEMATICS], capi[CAPI_MODEL], capi[CAPI_DATA])
-    for p in range(capi[CAPI_PAIR_START], capi[CAPI_PAIR_STOP]):
-        pair_margin[p] = margin
-    _call_model_data(capi[CAPI_COLLISION], capi[CAPI_MODEL], capi[CAPI_DATA])
-    ncon = struct_i32[capi[CAPI_NCON]]
-    if ncon > seg.shape[0]:
-        return -1
-    base = struct_i64[capi[CAPI_CONTACT]] - capi[CAPI_ARENA]  # bytes from the arena's start to contact[0]
-    stride = capi[CAPI_STRIDE]
+    called by address, MuJoCo's own handler runs, prints the error and ends the process. The backend runs one query
+    through the bindings at construction and reset, where an error raises ``mujoco.FatalError``; the proxy's arena
+    holds tens of thousands of contacts."""
+    P = S.par[0]
+    x = S.x
+    refresh_moving(S)
+    proxy_poses(x, S.pose_pos, S.pose_quat)
+    _call_model_data(P.fn_kinematics, P.model, P.data)
+    for p in range(P.pair_start, P.pair_stop):
+        S.pair_margin[p] = margin
+    _call_model_data(P.fn_collision, P.model, P.data)
+    ncon = S.struct_i32[P.ncon_word]
+    reserve_contacts(S, ncon)
+    base = S.struct_i64[P.contact_word] - P.arena  # bytes from the arena's start to contact[0]
+    stride = P.contact_size
+    arena_f64, arena_i32 = S.arena_f64, S.arena_i32
     if base < 0 or base % 8 != 0 or base + ncon * stride > 8 * arena_f64.shape[0]:
         return -1
+    seg, geo = S.seg, S.geo
     count = 0
     at_particle = np.full(x.shape[0], -1, dtype=np.int64)
     for c in range(ncon):
         row = base + c * stride
-        d, p, f, g = ((row + capi[CAPI_DIST]) // 8, (row + capi[CAPI_POS]) // 8, (row + capi[CAPI_FRAME]) // 8,
-                      (row + capi[CAPI_GEOM]) // 4)
+        d, p, f, g = ((row + P.off_dist) // 8, (row + P.off_pos) // 8, (row + P.off_frame) // 8,
+                      (row + P.off_geom) // 4)
         count = _take_contact(arena_i32[g], arena_i32[g + 1], arena_f64[d], arena_f64[p], arena_f64[p + 1],
-                              arena_f64[p + 2], arena_f64[f], arena_f64[f + 1], arena_f64[f + 2], segment_of_geom,
-                              shape_of_geom, geom_friction, x, radius, seg, geo, at_particle, count)
+                              arena_f64[p + 2], arena_f64[f], arena_f64[f + 1], arena_f64[f + 2], S.segment_of_geom,
+                              S.shape_of_geom, S.geom_friction, x, P.radius, seg, geo, at_particle, count)
     return count
 
 

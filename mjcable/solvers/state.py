@@ -1,9 +1,13 @@
-"""The particle solvers' state: arrays built once from the scene and a model's rules.
+"""The particle solvers' state: arrays built once from the scene and a model's rules, packed into one
+:class:`~mjcable.solvers.kernels_layout.SolverState` that the numba kernels take whole.
 
 Positions ``x`` and velocities ``v`` are ``(n + 1, 3)`` float64 arrays in metres and m/s; ``w`` holds inverse
 masses (1 / lumped mass, 0 for a held particle), so that every correction is mass-weighted (Jakobsen's
-``invmass`` form). The arrays live in a :class:`~mjcable.solvers.kernels.Chain` named tuple that the numba kernels
-take whole.
+``invmass`` form). :func:`chain_arrays` builds the chain's part (every field of
+:data:`~mjcable.solvers.kernels_layout.FIELDS`, the contact query's and the user world's as empty placeholders);
+the particle backend fills in the query's and the host's parts from the compiled MuJoCo model and
+:func:`~mjcable.solvers.kernels_layout.assemble` packs them. Python keeps the arrays (:class:`StateArrays`), which
+share their memory with the packed state.
 """
 
 from __future__ import annotations
@@ -15,15 +19,16 @@ from typing import Optional
 import numpy as np
 
 from mjcable.scene import Scene
-from mjcable.solvers import kernels
-from mjcable.solvers.kernels import FP, IP
+from mjcable.solvers import kernels_layout as layout
 from mjcable.solvers.settings import ParticleSettings
 
-__all__ = ["Rules", "new_chain", "empty_contacts", "ORDER_CODES", "BENDING_CODES"]
+__all__ = ["Rules", "StateArrays", "chain_arrays", "ORDER_CODES", "BENDING_CODES"]
 
-ORDER_CODES = {"gauss-seidel": kernels.ORDER_GAUSS_SEIDEL, "jacobi": kernels.ORDER_JACOBI,
-               "direct": kernels.ORDER_DIRECT}
-BENDING_CODES = {"none": kernels.BEND_NONE, "curvature": kernels.BEND_CURVATURE, "distance": kernels.BEND_DISTANCE}
+ORDER_CODES = {"gauss-seidel": layout.ORDER_GAUSS_SEIDEL, "jacobi": layout.ORDER_JACOBI,
+               "direct": layout.ORDER_DIRECT}
+BENDING_CODES = {"none": layout.BEND_NONE, "curvature": layout.BEND_CURVATURE, "distance": layout.BEND_DISTANCE}
+_SELF_CONTACT_CAPACITY = 8  # initial self-contact buffers per segment (the compiled search grows them)
+_CONTACT_CAPACITY = 4  # initial obstacle-contact buffers per segment: a cable lying on a face has about one a particle
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -67,13 +72,13 @@ def _direct_rows(n_particles: int, bending: str, clamp_pq: np.ndarray) -> dict:
     """The banded system's rows, ordered by their first particle, with per-particle row lists and the
     half-bandwidth."""
     n = n_particles - 1
-    rows = [(i, kernels.ROW_STRETCH, i, (i, i + 1)) for i in range(n)]
+    rows = [(i, layout.ROW_STRETCH, i, (i, i + 1)) for i in range(n)]
     if bending == "curvature":
-        rows += [(b, kernels.ROW_CURVATURE, 3 * b + comp, (b, b + 1, b + 2)) for b in range(n - 1) for comp in range(3)]
+        rows += [(b, layout.ROW_CURVATURE, 3 * b + comp, (b, b + 1, b + 2)) for b in range(n - 1) for comp in range(3)]
     elif bending == "distance":
-        rows += [(b, kernels.ROW_DISTANCE, b, (b, b + 2)) for b in range(n - 1)]
+        rows += [(b, layout.ROW_DISTANCE, b, (b, b + 2)) for b in range(n - 1)]
     for kc, (p, q) in enumerate(clamp_pq):
-        rows += [(min(p, q), kernels.ROW_CLAMP, 2 * kc + m, (int(p), int(q))) for m in range(2)]
+        rows += [(min(p, q), layout.ROW_CLAMP, 2 * kc + m, (int(p), int(q))) for m in range(2)]
     rows.sort(key=lambda r: r[0])  # stable: keeps the kinds' relative order per particle
     nrow = len(rows)
     row_kind = np.array([r[1] for r in rows], dtype=np.int64)
@@ -98,8 +103,16 @@ def _direct_rows(n_particles: int, bending: str, clamp_pq: np.ndarray) -> dict:
                 bandwidth=bandwidth)
 
 
-def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> kernels.Chain:
-    """The solver state of ``scene`` at rest in its start shape.
+class StateArrays(dict):
+    """The state's arrays by field name (:data:`~mjcable.solvers.kernels_layout.FIELDS`), also as attributes
+    (``arrays.x``), and the parameter record's fields as ``arrays.par[0]["h"]``."""
+
+    __getattr__ = dict.__getitem__
+
+
+def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> StateArrays:
+    """The solver state of ``scene`` at rest in its start shape: every field, those of the contact query and of a
+    user world's host empty (the backend fills them in).
 
     Args:
       scene: the scene.
@@ -136,43 +149,40 @@ def new_chain(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float)
         rows = _direct_rows(n_particles, "none", np.zeros((0, 2), dtype=np.int64))
     else:
         rows = _direct_rows(2, "none", np.zeros((0, 2), dtype=np.int64))  # unused placeholder of the right types
-    fp = np.zeros(kernels.N_FP)
-    fp[FP["h"]] = h
-    fp[FP["damp"]] = math.exp(-cable.damping * h)
-    fp[[FP["gx"], FP["gy"], FP["gz"]]] = scene.gravity
-    fp[FP["alpha_s"]], fp[FP["alpha_b"]], fp[FP["alpha_c"]] = rules.alpha_stretch, rules.alpha_bend, rules.alpha_clamp
-    fp[FP["k_s"]], fp[FP["k_b"]], fp[FP["k_c"]] = rules.k_stretch, rules.k_bend, rules.k_clamp
-    fp[FP["inv_l0sq"]] = 1.0 / l0**2
-    fp[FP["omega"]] = settings.omega
-    fp[FP["radius"]] = cable.radius
-    fp[FP["mu_self"]] = cable.friction
-    ip = np.zeros(kernels.N_IP, dtype=np.int64)
-    ip[IP["iterations"]] = settings.iterations
-    ip[IP["order"]] = ORDER_CODES[settings.order]
-    ip[IP["bending"]] = BENDING_CODES[rules.bending]
-    ip[IP["sqrt"]] = int(rules.sqrt_approx)
-    ip[IP["bandwidth"]] = rows.pop("bandwidth")
-    ip[IP["direct_all"]] = int(rules.direct_bending)
-    ip[IP["substeps"]] = settings.substeps
-    return kernels.Chain(
+    par = np.zeros(1, dtype=layout.PARAMS)
+    P = par[0]
+    gravity = np.asarray(scene.gravity, dtype=np.float64)
+    for name, value in dict(
+            h=h, damp=math.exp(-cable.damping * h), gx=gravity[0], gy=gravity[1], gz=gravity[2],
+            alpha_s=rules.alpha_stretch, alpha_b=rules.alpha_bend, alpha_c=rules.alpha_clamp, k_s=rules.k_stretch,
+            k_b=rules.k_bend, k_c=rules.k_clamp, inv_l0sq=1.0 / l0**2, omega=settings.omega, radius=cable.radius,
+            mu_self=cable.friction, iterations=settings.iterations, substeps=settings.substeps,
+            order=ORDER_CODES[settings.order], bending=BENDING_CODES[rules.bending], sqrt_approx=rules.sqrt_approx,
+            direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt,
+            max_distance=math.inf, max_speed=math.inf, contact_margin=settings.contact_margin,
+            fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
+            query=layout.QUERY_NONE, warning=-1).items():
+        P[name] = value
+    n_pins = len(pins)
+    a = StateArrays(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
-        count=np.zeros(n_particles),
+        count=np.zeros(n_particles), prev=x.copy(),
         rest=np.full(n, l0), lam_s=np.zeros(n),
         rest_d=np.full(max(n - 1, 0), 2.0 * l0), lam_d=np.zeros(max(n - 1, 0)), lam_b=np.zeros((max(n - 1, 0), 3)),
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
         lam_c=np.zeros((len(clamps), 2)),
-        pin_p=pin_p, pin_from=pin_from, pin_to=pin_from.copy(), pin_active=np.ones(len(pins), dtype=np.bool_),
-        pin_release=release, pin_force=np.zeros((len(pins), 3)), pin_sum=np.zeros((len(pins), kernels.N_PS)),
-        fric=np.zeros((n_particles, kernels.N_FR)), anchor=np.zeros((n_particles, 3)),
+        pin_p=pin_p, pin_from=pin_from, pin_to=pin_from.copy(), pin_active=np.ones(n_pins, dtype=np.bool_),
+        pin_release=release, pin_force=np.zeros((n_pins, 3)), pin_sum=np.zeros((n_pins, 3)),
+        pin_count=np.zeros(n_pins),
+        fric=np.zeros((n_particles, layout.N_FR)), anchor=np.zeros((n_particles, 3)),
         anchor_ob=np.full(n_particles, -1, dtype=np.int64),
-        fp=fp, ip=ip, **rows,
-    )
-
-
-def empty_contacts(capacity: int = 0, shapes: Optional[np.ndarray] = None) -> kernels.Contacts:
-    """Contact arrays holding no contacts, with the obstacles' ``shapes`` (B, ``kernels.N_SH``; default none)."""
-    return kernels.Contacts(seg=np.zeros(capacity, dtype=np.int64), geo=np.zeros((capacity, 7)),
-                            lam=np.zeros(capacity), pair=np.zeros((0, 2), dtype=np.int64),
-                            sgeo=np.zeros((0, 5)), slam=np.zeros((0, 2)),
-                            shapes=np.zeros((0, kernels.N_SH)) if shapes is None else shapes,
-                            impulse=np.zeros((0, 6)))
+        seg=np.zeros(_CONTACT_CAPACITY * n, dtype=np.int64), geo=np.zeros((_CONTACT_CAPACITY * n, 7)),
+        lam=np.zeros(_CONTACT_CAPACITY * n),
+        pair=np.zeros((_SELF_CONTACT_CAPACITY * n, 2), dtype=np.int64), sgeo=np.zeros((_SELF_CONTACT_CAPACITY * n, 5)),
+        slam=np.zeros((_SELF_CONTACT_CAPACITY * n, 2)), shapes=np.zeros((0, layout.N_SH)), impulse=np.zeros((0, 6)),
+        par=par, **rows)
+    for name, typ, _ in layout.FIELDS:  # the query's and the host's fields: empty until the backend fills them
+        if name not in a:
+            a[name] = np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype)))
+    a["start_from"], a["start_to"], a["target"] = (np.zeros((n_pins, 3)) for _ in range(3))
+    return a

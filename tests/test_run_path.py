@@ -1,16 +1,14 @@
-"""The particle solvers' two stepping paths give the same simulation bit for bit: ``Simulator.step(T)`` running its
-steps in one compiled loop (:meth:`ParticleBackend.run`, :func:`mjcable.solvers.kernels.run_steps_flat`) and the
-per-step Python path it replaces (``ParticleBackend.compiled_steps = False``: one backend ``step`` and one numpy
-divergence check per ``dt``). Divergence found inside the loop names the same step, time and reason."""
+"""One run path for every model: ``Simulator.step``, ``step_along`` and ``rollout`` all go through the backend's
+``run`` (the particle solvers: one compiled loop, :func:`mjcable.solvers.kernels.run_steps`; the native models: a loop
+of ``mj_step``), so that how a duration is split into calls changes nothing, bit for bit, and divergence found inside
+the loop names its step, time and reason."""
 
-import inspect
-
+import numba
 import numpy as np
 import pytest
 
 import mjcable
 from mjcable import catalog
-from mjcable.backends.particle import ParticleBackend
 from mjcable.solvers import kernels
 
 PARTICLE = catalog.names("particle")
@@ -30,75 +28,76 @@ def _counting(monkeypatch, name: str) -> dict:
     return calls
 
 
-def _run(scene, model: str, compiled: bool, monkeypatch) -> tuple:
-    """The state after a gripper move (for scenes with a gripper) and ``SECONDS`` of steps in one call, and the
-    number of per-step kernel calls and of loop calls it took."""
-    monkeypatch.setattr(ParticleBackend, "compiled_steps", compiled)
-    per_step = _counting(monkeypatch, "run_substeps_flat")
-    loop = _counting(monkeypatch, "run_steps_flat")
+def _state(sim) -> dict:
+    d = sim.mj_data
+    return dict(x=sim.positions, v=sim.velocities, f=sim.pin_forces, torque=sim.pin_torques,
+                sites=d.site_xpos.copy(), geoms=d.geom_xpos.copy(), quat=d.mocap_quat.copy(),
+                time=np.array([d.time, sim.time]), released=np.array(sorted(sim.released)),
+                counts=np.array([sim.diagnostics.get(k, 0) for k in ("contacts", "self_contacts", "queries")]))
+
+
+def _run(scene, model: str, chunks: int) -> dict:
+    """The state after a gripper move (for scenes with a gripper) and ``SECONDS`` of steps in ``chunks`` calls."""
     sim = mjcable.Simulator(scene, model)
     for pin in scene.grippers:
         sim.move_gripper(pin, sim.gripper_positions[0] + [0.03, 0.0, 0.02])  # spread over the next step
-    sim.step(SECONDS)
-    d = sim.mj_data
-    state = dict(x=sim.positions, v=sim.velocities, f=sim.pin_forces, torque=sim.pin_torques,
-                 sites=d.site_xpos.copy(), geoms=d.geom_xpos.copy(), quat=d.mocap_quat.copy(),
-                 time=np.array([d.time, sim.time]), released=np.array(sorted(sim.released)),
-                 counts=np.array([sim.diagnostics[k] for k in ("contacts", "self_contacts", "queries")]))
-    monkeypatch.undo()
-    return state, per_step["n"], loop["n"], sim.steps
+    for _ in range(chunks):
+        sim.step(SECONDS / chunks)
+    assert sim.steps == 50
+    return _state(sim)
 
 
-@pytest.mark.parametrize("model", PARTICLE)
+@pytest.mark.parametrize("model", PARTICLE + ["springs"])
 @pytest.mark.parametrize("scene_name", ["hang", "socket"])
-def test_compiled_steps_equal_the_per_step_path_bit_for_bit(scene_name, model, monkeypatch):
+def test_one_call_equals_one_step_per_call_bit_for_bit(scene_name, model, monkeypatch):
     scene = mjcable.scenes.get(scene_name, n_segments=12, damping=1.0)
-    fast, fast_per_step, fast_loops, steps = _run(scene, model, True, monkeypatch)
-    slow, slow_per_step, slow_loops, slow_steps = _run(scene, model, False, monkeypatch)
-    assert steps == slow_steps == 50
-    # the two paths really differ: one Python step per dt against the loop
-    assert slow_per_step == 50 and slow_loops == 0
-    assert fast_per_step == 0 and 1 <= fast_loops <= 50
-    if scene_name == "hang":  # nothing to query: the whole call is one loop
-        assert fast_loops == 1
-    for key in slow:
-        np.testing.assert_array_equal(fast[key], slow[key], err_msg=f"{key} differs between the two paths")
-    assert np.all(np.isfinite(fast["f"])) and np.abs(fast["f"]).max() > 0.0  # the pins hold the cable
+    loops = _counting(monkeypatch, "run_steps")
+    whole = _run(scene, model, 1)
+    if model in PARTICLE:
+        assert loops["n"] == 1  # the whole call is one compiled loop (its queries inside it)
+    stepped = _run(scene, model, 50)
+    for key in stepped:
+        np.testing.assert_array_equal(whole[key], stepped[key], err_msg=f"{key} differs between the two splits")
+    assert np.all(np.isfinite(whole["f"])) and np.abs(whole["f"]).max() > 0.0  # the pins hold the cable
 
 
 @pytest.mark.parametrize("self_collision", [False, True])
-def test_rollout_in_the_loop_records_the_per_step_states(self_collision, monkeypatch):
-    """The drape falls freely (in the loop), then lands (queried steps); with self-collision every step is queried."""
+def test_rollout_records_the_states_of_single_steps(self_collision):
+    """The drape falls freely, then lands (queried steps); with self-collision every step is queried."""
     scene = mjcable.scenes.get("drape", n_segments=12)
-    rolls = []
-    for compiled in (True, False):
-        monkeypatch.setattr(ParticleBackend, "compiled_steps", compiled)
-        sim = mjcable.Simulator(scene, "xpbd", self_collision=self_collision)
-        rolls.append(sim.rollout(0.3, every=7))
-        assert sim.diagnostics["queries"] > 0
-    for a, b in zip(rolls[0].__dict__.values(), rolls[1].__dict__.values()):
-        np.testing.assert_array_equal(a, b)
+    rolled = mjcable.Simulator(scene, "xpbd", self_collision=self_collision)
+    traj = rolled.rollout(0.3, every=7)
+    assert rolled.diagnostics["queries"] > 0
+    stepped = mjcable.Simulator(scene, "xpbd", self_collision=self_collision)
+    for r, step in enumerate(np.round(traj.times / stepped.dt).astype(int)):
+        stepped.step((step - stepped.steps) * stepped.dt)
+        assert stepped.steps == step
+        np.testing.assert_array_equal(traj.positions[r], stepped.positions)
+        np.testing.assert_array_equal(traj.velocities[r], stepped.velocities)
+
+
+@numba.njit
+def _poison(S):
+    S.x[4, 2] = np.nan
 
 
 def _poison_loop_at(step: int, monkeypatch) -> None:
     """Make the compiled loop put a NaN into a free particle before the ``step``-th step (counting from 1) it is
     asked for from now on."""
-    real = kernels.run_steps_flat
-    n_steps = list(inspect.signature(real.py_func).parameters).index("n_steps")
+    real = kernels.run_steps
     taken = {"n": 0}
 
-    def poisoned(*args):
-        args = list(args)
+    def poisoned(S, n_steps, *args):
         left = step - 1 - taken["n"]
         if left > 0:
-            args[n_steps] = min(args[n_steps], left)
+            n_steps = min(n_steps, left)
         else:
-            args[0][4, 2] = np.nan  # args[0]: the positions x
-        out = real(*args)
+            _poison(S)
+        out = real(S, n_steps, *args)
         taken["n"] += out[0]
         return out
 
-    monkeypatch.setattr(kernels, "run_steps_flat", poisoned)
+    monkeypatch.setattr(kernels, "run_steps", poisoned)
 
 
 @pytest.mark.parametrize("model", PARTICLE)
@@ -112,21 +111,15 @@ def test_nan_in_the_loop_raises_at_its_step(model, monkeypatch):
     assert sim.steps == 12 and np.isnan(sim.positions).any()
 
 
-def test_runaway_in_the_loop_raises_as_the_per_step_path_does(monkeypatch):
-    """A gripper yanked 1 m within one step (500 m/s) trips the speed check at that step on both paths, with the
-    same message."""
-    scene = mjcable.scenes.get("socket", n_segments=12)
-    errors = []
-    for compiled in (True, False):
-        monkeypatch.setattr(ParticleBackend, "compiled_steps", compiled)
-        sim = mjcable.Simulator(scene, "xpbd")
-        sim.step(0.01)
-        sim.move_gripper(1, sim.gripper_positions[0] + [1.0, 0.0, 0.0])
-        with pytest.raises(mjcable.SimulationDivergedError, match=r"step 6 .*moved at") as err:
-            sim.step(0.02)
-        errors.append(str(err.value))
-        assert sim.steps == 6
-    assert errors[0] == errors[1]
+@pytest.mark.parametrize("model", ["xpbd", "springs"])
+def test_runaway_raises_at_its_step(model):
+    """A gripper yanked 1 m within one step (500 m/s) trips the speed check at that step."""
+    sim = mjcable.Simulator(mjcable.scenes.get("socket", n_segments=12), model)
+    sim.step(0.01)
+    sim.move_gripper(1, sim.gripper_positions[0] + [1.0, 0.0, 0.0])
+    with pytest.raises(mjcable.SimulationDivergedError, match=r"step 6 .*moved at .* m/s \(limit 200 m/s\)"):
+        sim.step(0.02)
+    assert sim.steps == 6
 
 
 # --- Simulator.step_along: a gripper path in one call ---------------------------------------------------------------
@@ -172,16 +165,13 @@ def _reference_path(scene, model: str) -> tuple:
     return path, states, released_at
 
 
-@pytest.mark.parametrize("model, compiled", [(m, c) for m in PARTICLE for c in (True, False)]
-                         + [("springs", True), ("flexrod", True)])  # native: one MuJoCo step after another
-def test_step_along_equals_move_gripper_and_step_bit_for_bit(model, compiled, monkeypatch):
+@pytest.mark.parametrize("model", PARTICLE + ["springs", "flexrod"])
+def test_step_along_equals_move_gripper_and_step_bit_for_bit(model, monkeypatch):
     scene = mjcable.scenes.get("socket", n_segments=12)
     path, states, released_at = _reference_path(scene, model)
     assert released_at is not None and 5 < released_at < _PATH_STEPS - 5  # the socket lets go part way
 
-    monkeypatch.setattr(ParticleBackend, "compiled_steps", compiled)
-    per_step = _counting(monkeypatch, "run_substeps_flat")
-    loop = _counting(monkeypatch, "run_steps_flat")
+    loop = _counting(monkeypatch, "run_steps")
     whole = mjcable.Simulator(scene, model)
     assert whole.step_along(path) == _PATH_STEPS  # a release does not stop it unless asked
     _assert_same(_snapshot(whole), states[-1])
@@ -192,10 +182,8 @@ def test_step_along_equals_move_gripper_and_step_bit_for_bit(model, compiled, mo
     _assert_same(_snapshot(watched), states[taken - 1])
     assert watched.step_along(path[taken:], until_release=True) == _PATH_STEPS - taken  # no socket left to let go
     _assert_same(_snapshot(watched), states[-1])
-    if model in PARTICLE and compiled:  # the paths really ran in the loop, not one Python step each
-        assert per_step["n"] == 0 and loop["n"] >= 1
-    elif model in PARTICLE:
-        assert per_step["n"] == 2 * _PATH_STEPS and loop["n"] == 0  # the whole path, the watched one
+    if model in PARTICLE:  # the paths ran in the loop, not one Python step each
+        assert 3 <= loop["n"] <= 6
 
 
 def test_step_along_takes_no_steps_for_an_empty_path_and_leaves_the_remainder_alone():
@@ -234,18 +222,16 @@ def test_step_along_rejects_a_path_of_the_wrong_shape_or_not_finite(path, messag
 
 
 def test_an_environment_control_step_runs_in_the_compiled_loop(monkeypatch):
-    """unplug on xpbd: a moving control step takes no Python step (no per-step kernel call), and no more loop calls
-    than Simulator steps (the loop returns to Python only for contact queries)."""
+    """unplug on xpbd: a moving control step is one call of the compiled loop (contact queries inside it)."""
     from mjcable import envs
 
     env = envs.load("unplug", "xpbd", random=0)
     env.reset()
     nstep = round(env.control_timestep() / env.physics.timestep())
     action = np.full(env.action_spec().shape, 0.5 * env.action_spec().maximum)
-    per_step = _counting(monkeypatch, "run_substeps_flat")
-    loop = _counting(monkeypatch, "run_steps_flat")
+    loop = _counting(monkeypatch, "run_steps")
     before = env.physics.gripper_positions()
     env.step(action)
     assert not np.array_equal(env.physics.gripper_positions(), before)  # the gripper moved
     assert env.physics.simulator.steps == nstep
-    assert per_step["n"] == 0 and 1 <= loop["n"] <= nstep
+    assert loop["n"] == 1
