@@ -12,7 +12,7 @@ import mjcable
 from mjcable.bench import contact
 from mjcable.bench.case import Case
 from mjcable.bench.runner import run_case
-from mjcable.solvers import contact_kernels, kernels
+from mjcable.solvers import contact_kernels, kernels_layout
 
 G = 9.81
 CAPSTAN_MU = 0.3  # the rope over a peg: long/short < e^{0.3 π} ≈ 2.57 for a light rope
@@ -53,14 +53,14 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
     sgeo = np.array([[0.5, 0.5, 0.0, 0.0, 1.0]])
     slam = np.zeros((1, 2))
     # the table: a plane at z = r under the free segment, through contact_sweep and friction_sweep
-    shapes = np.zeros((1, kernels.N_SH))
-    shapes[0, kernels.SH_TYPE] = mujoco.mjtGeom.mjGEOM_PLANE
-    shapes[0, kernels.SH_ROT:kernels.SH_ROT + 9] = np.eye(3).ravel()
-    shapes[0, kernels.SH_POS + 2] = r
+    shapes = np.zeros((1, kernels_layout.N_SH))
+    shapes[0, kernels_layout.SH_TYPE] = mujoco.mjtGeom.mjGEOM_PLANE
+    shapes[0, kernels_layout.SH_ROT:kernels_layout.SH_ROT + 9] = np.eye(3).ravel()
+    shapes[0, kernels_layout.SH_POS + 2] = r
     seg = np.array([2], dtype=np.int64)
     geo = np.array([[0.5, 0.0, 0.0, 1.0, 2 * r, mu, 0.0]])
     lam = np.zeros(1)
-    fric = np.zeros((4, kernels.N_FR))
+    fric = np.zeros((4, kernels_layout.N_FR))
     anchor = np.zeros((4, 3))
     anchor_ob = np.full(4, -1, dtype=np.int64)
     centre = []
@@ -123,11 +123,11 @@ def test_obstacle_shapes_measure_the_distance_mujoco_measures(typ, size):
     m = spec.compile()
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    shape = np.zeros(kernels.N_SH)
-    shape[kernels.SH_TYPE] = typ
-    shape[kernels.SH_SIZE:kernels.SH_SIZE + 3] = m.geom_size[0]
-    shape[kernels.SH_POS:kernels.SH_POS + 3] = d.geom_xpos[0]
-    shape[kernels.SH_ROT:kernels.SH_ROT + 9] = d.geom_xmat[0]
+    shape = np.zeros(kernels_layout.N_SH)
+    shape[kernels_layout.SH_TYPE] = typ
+    shape[kernels_layout.SH_SIZE:kernels_layout.SH_SIZE + 3] = m.geom_size[0]
+    shape[kernels_layout.SH_POS:kernels_layout.SH_POS + 3] = d.geom_xpos[0]
+    shape[kernels_layout.SH_ROT:kernels_layout.SH_ROT + 9] = d.geom_xmat[0]
     rng = np.random.default_rng(7)
     checked = 0
     fromto = np.zeros(6)

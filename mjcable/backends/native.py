@@ -103,6 +103,7 @@ class NativeBackend:
         mujoco.mj_forward(m, d)
         self._gripper_from = {}
         self._refresh()
+        self._last = self.positions()  # the particles before the next step (run()'s divergence checks)
 
     def run(self, count: int, *, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
             path: Optional[tuple] = None, until_release: bool = False) -> RunResult:
@@ -117,7 +118,7 @@ class NativeBackend:
             np.any(targets[1:] != targets[:-1], axis=2, out=moved[1:])
         released = len(self.released) if until_release else 0
         stored = 0
-        x = self.positions()
+        x = self._last  # (not read from mj_data: a user may have reset it since)
         for i in range(count):
             if i < len(targets):
                 for g in np.flatnonzero(moved[i]).tolist():
@@ -130,6 +131,7 @@ class NativeBackend:
             if stored < len(rows) and rows[stored] == i + 1:
                 out_x[stored], out_v[stored] = x, self.velocities()
                 stored += 1
+            self._last = x
             if reason is not None:
                 return RunResult(i + 1, stored, reason)
             if until_release and len(self.released) != released:

@@ -7,7 +7,7 @@ velocities, inverse masses, rest lengths, multipliers), the pins and clamps, the
 contacts (buffers grown on demand, with their counts), the contact query's view of the proxy's ``mjData`` and the
 user world's host links, plus one parameter record ``par`` (a length-1 numpy structured array: numba reads and
 writes its fields by name, Python sees the same memory). Python keeps numpy views of the same arrays
-(:func:`mjcable.solvers.state.new_state`), so that reading positions or pin forces costs no compiled call.
+(:func:`mjcable.solvers.state.chain_arrays`), so that reading positions or pin forces costs no compiled call.
 
 Numba freezes module constants and the state's type into the compiled kernels that read them, so this file is a
 kernel file for the cache (its name matches ``*kernels*``: a change here recompiles every kernel, see
@@ -160,7 +160,7 @@ class SolverStateType(types.StructRef):
 
 
 class SolverState(structref.StructRefProxy):
-    """The particle solver's state (see the module docstring); built by :func:`mjcable.solvers.state.new_state`,
+    """The particle solver's state (see the module docstring); built by :func:`mjcable.solvers.kernels_layout.assemble`,
     read from Python through the numpy views it returns beside it."""
 
 
