@@ -209,14 +209,15 @@ def _add_cable(spec: mujoco.MjSpec, scene: Scene, timestep: float, self_collisio
 
     geom = world.cable_geom(scene, self_collision=self_collision)
     springs = uses_edge_springs(scene, timestep)
-    spec.add_flex(
+    flex = spec.add_flex(
         name=FLEX, dim=1, vertbody=[vertex_body(i) for i in range(n)],
         elem=np.column_stack([np.arange(n - 1), np.arange(1, n)]).ravel().tolist(),
         radius=cable.radius, young=cable.young,
         poisson=0.0,  # unused by a 1D flex; 0 keeps it in MuJoCo's valid range [0, 0.5)
         selfcollide=(mujoco.mjtFlexSelf.mjFLEXSELF_AUTO if self_collision else mujoco.mjtFlexSelf.mjFLEXSELF_NONE),
         edgestiffness=cable.stretch_stiffness / cable.segment_length if springs else 0.0,
-        **{attribute: geom[attribute] for attribute in ("friction", "condim", "contype", "conaffinity", "material")})
+        **{attribute: geom[attribute] for attribute in ("friction", "condim", "contype", "conaffinity")})
+    _set_material(flex, geom["material"])
     if not springs:
         spec.add_equality(name=_EDGE_EQUALITY, type=mujoco.mjtEq.mjEQ_FLEX, name1=FLEX,
                           solref=[EDGE_SOLREF_STEPS * timestep, 1.0], solimp=EDGE_SOLIMP)
@@ -229,6 +230,13 @@ def _add_cable(spec: mujoco.MjSpec, scene: Scene, timestep: float, self_collisio
         extra = dict(mpos=np.ravel([pos for pos, _ in mocap]), mquat=np.ravel([q for _, q in mocap])) if mocap else {}
         spec.add_key(name=START_KEY, qpos=np.concatenate([base_qpos, (cable.particles - rest).ravel()]), **extra)
     return spec
+
+
+def _set_material(flex: mujoco.MjsFlex, material: str) -> None:
+    """Give ``flex`` the material named ``material`` in whichever form the installed MuJoCo has: one name (a ``str``,
+    MuJoCo 3.x) or a list of names (MuJoCo 4, where ``MjSpec.add_flex(material=...)`` takes ``list[str]``); the form
+    is read off the flex itself, not off a version number."""
+    flex.material = material if isinstance(flex.material, str) else [material]
 
 
 def _base_pose(spec: mujoco.MjSpec) -> tuple:
