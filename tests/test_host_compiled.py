@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable import CableSpec, Pin, Scene, Simulator, envs
+from mjcable import CableSpec, Pin, Scene, Simulator
 from mjcable.backends.host import Host
 from mjcable.solvers import capi, host_kernels
 
@@ -135,7 +135,10 @@ def test_two_way_contacts_are_the_same_compiled(monkeypatch, compiled_calls):
 # --- the jaco_unplug environment ------------------------------------------------------------------------------------
 
 
+@pytest.mark.envs
 def test_the_jaco_unplug_environment_is_the_same_compiled(monkeypatch, compiled_calls):
+    from mjcable import envs  # dm_control
+
     action = None
 
     def make():
