@@ -233,6 +233,7 @@ def test_step_along_rejects_a_path_of_the_wrong_shape_or_not_finite(path, messag
     assert sim.steps == 0
 
 
+@pytest.mark.envs
 def test_an_environment_control_step_runs_in_the_compiled_loop(monkeypatch):
     """unplug on xpbd: a moving control step takes no Python step (no per-step kernel call), and no more loop calls
     than Simulator steps (the loop returns to Python only for contact queries)."""
