@@ -64,7 +64,8 @@ for _task in TASKS:
     for _model in MODELS:
         _name = f"TestConformance_{_task}_{_model}"
         globals()[_name] = type(_name, (_Conformance, unittest.TestCase), {"task": _task, "model": _model})
-        del _task, _model, _name
+if TASKS:  # none where dm_control does not run
+    del _task, _model, _name
 
 
 # --- a random policy over two episodes per task x model -------------------------------------------------------------
