@@ -229,3 +229,19 @@ def test_settings_with_user_constraints_rebuild_the_same_simulator(hang):
     again.step(0.2)
     np.testing.assert_array_equal(again.positions, sim.positions)
     assert sim.positions[10, 2] > 0.8 - 1e-9  # the user's floor holds
+
+
+def test_composite_is_in_the_catalogue_exactly_where_the_cable_plugin_is():
+    """MuJoCo 3.x: composite is registered. MuJoCo 4 (no cable plugin): it is not, and every way of asking for it
+    raises a ValueError that says MuJoCo 4 removed the plugin and names the models that bend instead."""
+    from mjcable.mjcf import composite
+
+    if composite.missing_plugin() is None:
+        assert "composite" in mjcable.MODELS and not catalog.unavailable()
+        return
+    assert "composite" not in mjcable.MODELS and set(catalog.unavailable()) == {"composite"}
+    scene = mjcable.scenes.get("hang")
+    for ask in (lambda: mjcable.Simulator(scene, "composite"), lambda: catalog.get("composite"),
+                lambda: mjcable.build(scene, "composite"), lambda: composite.build(scene, timestep=0.002)):
+        with pytest.raises(ValueError, match=r"MuJoCo 4 removed.*flexrod, joints, and xpbd, pbd or jakobsen"):
+            ask()
