@@ -6,6 +6,10 @@ defaults documented on the class), its ``MjSpec`` builder and its backend. The S
 the bench, the renderer, the environments and the CLI all derive their model lists from here
 (:func:`names`); ``mjcable.MODELS``, ``NATIVE_MODELS`` and ``PARTICLE_MODELS`` are live views of it.
 
+A model that the installed MuJoCo cannot run is not registered: ``composite`` needs MuJoCo's cable plugin, which
+MuJoCo 4 removed. :func:`unavailable` names such models with the reason, and asking for one (:func:`get`,
+:func:`build`, ``Simulator``) raises a ``ValueError`` with that reason.
+
 Adding a model takes one module (its builder and, for a particle model, its ``rules``) and one :func:`register`
 call::
 
@@ -35,8 +39,8 @@ from mjcable.scene import Scene
 from mjcable.solvers import jakobsen, pbd, xpbd
 from mjcable.solvers.settings import JakobsenSettings, PBDSettings, XPBDSettings
 
-__all__ = ["ModelEntry", "FAMILIES", "register", "unregister", "get", "names", "check_model", "make_settings",
-           "build", "check_dt"]
+__all__ = ["ModelEntry", "FAMILIES", "register", "unregister", "get", "names", "unavailable", "check_model",
+           "make_settings", "build", "check_dt"]
 
 FAMILIES = ("native", "particle")
 
@@ -77,6 +81,7 @@ class ModelEntry:
 
 
 _REGISTRY: Dict[str, ModelEntry] = {}
+_UNAVAILABLE: Dict[str, str] = {}  # model name -> why the installed MuJoCo cannot run it
 
 
 def register(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
@@ -102,8 +107,20 @@ def names(family: Optional[str] = None) -> tuple:
     return tuple(n for n, e in _REGISTRY.items() if family is None or e.family == family)
 
 
+def unavailable() -> Dict[str, str]:
+    """``{name: reason}`` of the built-in models that the installed MuJoCo cannot run (not registered): on MuJoCo 4,
+    ``composite`` (no cable plugin); empty on MuJoCo 3.x."""
+    return dict(_UNAVAILABLE)
+
+
 def check_model(name) -> str:
-    """``name``, checked to be a registered model."""
+    """``name``, checked to be a registered model.
+
+    Raises:
+      ValueError: ``name`` is not registered; for a model of :func:`unavailable`, the reason it is missing.
+    """
+    if isinstance(name, str) and name in _UNAVAILABLE and name not in _REGISTRY:
+        raise ValueError(_UNAVAILABLE[name])
     if not isinstance(name, str) or name not in _REGISTRY:
         raise ValueError(f"model must be one of {names()}, got {name!r}")
     return name
@@ -162,11 +179,14 @@ def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.
     return entry.build(scene, make_settings(model, **settings), dt)
 
 
-for _module, _settings, _summary in (
-        (springs, SpringsSettings, "point masses joined by spring tendons (MuJoCo)"),
-        (joints, JointsSettings, "ball-joint capsule chain (MuJoCo)"),
-        (composite, CompositeSettings, "MuJoCo's cable plugin (composite)"),
-        (flexrod, FlexrodSettings, "1D flexcomp, a discrete elastic rod (MuJoCo)")):
+for _module, _settings, _summary, _missing in (
+        (springs, SpringsSettings, "point masses joined by spring tendons (MuJoCo)", None),
+        (joints, JointsSettings, "ball-joint capsule chain (MuJoCo)", None),
+        (composite, CompositeSettings, "MuJoCo's cable plugin (composite)", composite.missing_plugin()),
+        (flexrod, FlexrodSettings, "1D flexcomp, a discrete elastic rod (MuJoCo)", None)):
+    if _missing is not None:
+        _UNAVAILABLE[_module.__name__.rsplit(".", 1)[1]] = _missing
+        continue
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="native", settings=_settings,
                         build=spec_builder(_module.build), backend=NativeBackend, summary=_summary))
 for _module, _settings, _summary in (

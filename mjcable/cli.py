@@ -139,6 +139,14 @@ def _report_problems(problems: dict) -> None:
         print(f"mjcable: model {model!r} failed and was left out: {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
+def _report_unavailable() -> None:
+    """Say which built-in models the installed MuJoCo cannot run (``composite`` on MuJoCo 4) and why."""
+    from mjcable import catalog
+
+    for model, reason in catalog.unavailable().items():
+        print(f"mjcable: model {model!r} is not available here and was left out: {reason}", file=sys.stderr)
+
+
 def demo_selection() -> Tuple[str, Tuple[str, ...], Dict[str, Exception]]:
     """What ``mjcable demo`` renders: ``(scene, models, problems)``, the models being every model of the catalogue
     (asked at call time, so a model registered at run time is in it) that builds :data:`DEMO_SCENE`, and
@@ -154,6 +162,7 @@ def _demo(args) -> int:
 
     start = time.perf_counter()
     scene, models, problems = demo_selection()
+    _report_unavailable()
     _report_problems(problems)
     if not models:
         print("mjcable demo: no model is available", file=sys.stderr)
@@ -176,6 +185,7 @@ def _render(args) -> int:
     dt = DEFAULT_DT if args.dt is None else args.dt
     if models == ["all"]:
         models, problems = render.available_models(args.scene, dt=dt)
+        _report_unavailable()
         _report_problems(problems)
         if not models:
             print("mjcable render: no model is available", file=sys.stderr)

@@ -3,10 +3,11 @@
 Each file is ``{out}/{scene}_{model}.xml``, written atomically from ``mjcable.build(scenes.get(scene), model)``'s
 ``MjSpec.to_xml()`` (composite and flexcomp models are saved expanded, with their plugin configuration), behind a
 one-line comment that says where it came from. Every file loads with ``mujoco.MjModel.from_xml_path`` and
-``dm_control.mujoco.Physics.from_xml_path`` and steps from its default pose without MuJoCo warnings; where a model
+``dm_control.mujoco.Physics.from_xml_path`` (where dm_control runs on the installed MuJoCo) and steps from its default pose without MuJoCo warnings; where a model
 compiles in another pose than the scene's start (a flex with bending compiles straight), the file holds a keyframe
 named ``start`` (:data:`mjcable.mjcf.world.START_KEY`) with the start pose. MuJoCo writes numbers with 6 significant digits,
-so positions in the files are rounded to about a micrometre.
+so positions in the files are rounded to about a micrometre. Only the models the installed MuJoCo has are written:
+on MuJoCo 4 (no cable plugin) the committed ``composite`` files are left as they are.
 
 The generators snap round-off (:mod:`mjcable.mjcf.snap`), so the files are the same on every machine; whether a
 file is up to date is judged on the compiled models, not on the text (:func:`model_differences`): sizes, names,
@@ -34,7 +35,7 @@ from typing import List, Optional, Sequence, Tuple, Union
 import mujoco
 import numpy as np
 
-from mjcable import _validate, scenes
+from mjcable import _dm_control, _validate, scenes
 from mjcable.catalog import build, names as model_names
 from mjcable.mjcf.world import START_KEY
 from mjcable.io import atomic_write
@@ -116,17 +117,20 @@ def export(out: PathLike = DEFAULT_OUT, *, models: Optional[Sequence[str]] = Non
 
 def check_file(path: PathLike, *, seconds: float = CHECK_SECONDS) -> None:
     """Load ``path`` with MuJoCo and with dm_control and step it ``seconds`` with plain ``mj_step`` from its default
-    pose (and from its ``start`` keyframe, if it has one) without MuJoCo warnings or non-finite states.
+    pose (and from its ``start`` keyframe, if it has one) without MuJoCo warnings or non-finite states. The
+    dm_control load is skipped where dm_control is missing or does not run on the installed MuJoCo
+    (``dm-control`` 1.0.50 on MuJoCo 4).
 
     Raises:
       RuntimeError: naming the file, the pose, the time and the warnings.
     """
-    from dm_control import mujoco as dm_mujoco
-
     path = Path(_validate.path_like("path", path))
     seconds = _validate.number("seconds", seconds, low=0.0, low_open=True, unit="s")
     mj_model = mujoco.MjModel.from_xml_path(str(path))
-    dm_mujoco.Physics.from_xml_path(str(path))  # raises if dm_control cannot load it
+    if _dm_control.problem() is None:
+        from dm_control import mujoco as dm_mujoco
+
+        dm_mujoco.Physics.from_xml_path(str(path))  # raises if dm_control cannot load it
     key = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_KEY, START_KEY)
     poses = ["default"] + ([START_KEY] if key >= 0 else [])
     n_steps = int(math.ceil(seconds / mj_model.opt.timestep))

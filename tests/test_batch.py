@@ -117,6 +117,7 @@ def test_divergence_names_the_copy_after_the_others_have_stepped(table):
     assert np.array_equal(batch.positions[2], reference.positions)
 
 
+@pytest.mark.envs
 @pytest.mark.slow  # about 7 s
 def test_batch_env_equals_single_environments():
     actions = np.random.default_rng(0).uniform(-1.0, 1.0, (4, 2, 3)) * 0.005  # reach_sag: one gripper, 3 numbers

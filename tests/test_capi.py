@@ -103,3 +103,31 @@ def test_contact_buffers_grow_in_the_loop(c_api, monkeypatch):
     assert tight["counts"][0] > 0 and tight["counts"][1] > 0  # obstacle and self contacts
     for key in ample:
         np.testing.assert_array_equal(tight[key], ample[key], err_msg=key)
+
+
+def test_the_installed_mujoco_passes_the_layout_and_host_signature_checks():
+    """On every MuJoCo mjcable supports (3.17 and 4.x), the layout check and the host functions' declarations pass."""
+    assert capi.unavailable() is None, capi.unavailable()
+    assert capi.host_unavailable() is None, capi.host_unavailable()
+
+
+@pytest.mark.parametrize("name, position, new_type", [("mj_getState", 3, "unsigned int"),
+                                                       ("mj_setState", 3, "mjtState"),
+                                                       ("mj_jac", 5, "mjtNum")])
+def test_a_changed_host_signature_falls_back_with_its_reason(monkeypatch, name, position, new_type):
+    """A MuJoCo whose mj_getState/mj_setState (or any host function) took other arguments than the host kernels pass
+    leaves the compiled host off, and says which declaration differs."""
+    from mujoco.introspect import ast_nodes, functions
+
+    decl = functions.FUNCTIONS[name]
+    parameters = list(decl.parameters)
+    parameters[position] = dataclasses.replace(parameters[position], type=ast_nodes.ValueType(name=new_type))
+    monkeypatch.setitem(functions.FUNCTIONS, name, dataclasses.replace(decl, parameters=tuple(parameters)))
+    capi._cached_host.cache_clear()
+    try:
+        assert capi.host_functions() is None
+        assert name in capi.host_unavailable() and new_type in capi.host_unavailable()
+    finally:
+        monkeypatch.undo()
+        capi._cached_host.cache_clear()
+    assert capi.host_functions() is not None

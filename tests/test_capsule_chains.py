@@ -11,12 +11,13 @@ import numpy as np
 import pytest
 
 import mjcable
+from catalog_params import model_params
 from mjcable.mjcf import world
 from mjcable.mjcf.world import START_KEY
 from mjcable.scene import GRAVITY, CableSpec, Pin, Scene
 from mjcable.scenes import HANG_HEIGHT, HANG_LENGTH, HANG_SPAN, TABLE_TOP
 
-MODELS = ["joints", "composite"]
+MODELS = model_params(models=["joints", "composite"])  # composite carries its marker
 CATENARY_TOL = 5e-3  # m, every particle, at the default dt
 REST_SPEED = 1e-3  # m/s: a cable slower than this everywhere is at rest
 PIN_TOL = 1e-3  # m: how far a particle held by a soft connect equality may sit from its anchor
@@ -74,8 +75,7 @@ def test_mass_and_rest_length(model):
 
 
 # composite steps the same capsule chain as joints (identical trajectories): its runs go with the slow tests
-@pytest.mark.parametrize("model", [m if m != "composite" else pytest.param(m, marks=pytest.mark.slow)
-                                   for m in MODELS])
+@pytest.mark.parametrize("model", ["joints", pytest.param("composite", marks=[pytest.mark.slow, pytest.mark.composite])])
 @pytest.mark.parametrize("scene_name", mjcable.scenes.names())
 def test_builtin_scenes_run(model, scene_name):
     scene = mjcable.scenes.get(scene_name)
@@ -265,6 +265,7 @@ def test_free_fall(model):
     np.testing.assert_allclose(drop, 0.5 * G * sim.time**2, rtol=FREE_FALL_TOL)
 
 
+@pytest.mark.composite
 def test_composite_plugin_moduli():
     from mjcable.mjcf import composite
 

@@ -127,6 +127,7 @@ def test_bench_and_stress_forward_their_options(monkeypatch, capsys):
     assert (stress.quick, stress.out, stress.jobs, stress.models) == (False, "s", None, None)
 
 
+@pytest.mark.envs
 def test_render_env_records_an_episode(tmp_path, monkeypatch, capsys):
     """--env goes through mjcable.envs.load(task, model, random=seed); a dm_control suite task stands in for it."""
     from dm_control import suite
@@ -154,6 +155,7 @@ def test_module_runs_as_a_script():
         assert command in out.stdout
 
 
+@pytest.mark.envs
 def test_render_env_with_mjcable_envs_shows_the_cable(tmp_path, capsys):
     path = tmp_path / "reach.mp4"
     status, _, err = run(["render", "--env", "reach_sag", "--model", "springs", "--seed", "0", "-o", str(path),

@@ -20,6 +20,8 @@ from mjcable.bench import scenarios
 from mjcable.mjcf import composite, joints, snap, world
 from mjcable.scene import CableSpec, Pin, Scene
 
+pytestmark = pytest.mark.composite  # the cable plugin: MuJoCo 3.x only
+
 SCENES = ["hang", "table", "drape", "socket"]
 POSITION_TOL = 1e-9  # m: old and new builder after 0.5 s (the same model: only round-off may differ)
 MODEL_TOL = 1e-12  # relative: compiled arrays of the two builders

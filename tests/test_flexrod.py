@@ -286,3 +286,24 @@ def test_too_fine_a_taut_cable_warns_and_stable_substeps_fix_it():
     sim.step(0.5)
     chords = np.linalg.norm(np.diff(sim.positions, axis=0), axis=1)
     assert np.abs(chords / scene.cable.segment_length - 1.0).max() < STRAIN_TOL
+
+
+def test_stiff_cable_steps_with_an_integrator_this_mujoco_accepts_and_the_same_physics():
+    """MuJoCo 4 refuses flex bending under implicitfast: a stiff flexrod then steps with Euler. Where both compile
+    (MuJoCo 3.x), the two integrators give the same trajectory to the bit, so the switch keeps the physics."""
+    scene = mjcable.scenes.get("hang", n_segments=20, young=1e5)
+    spec = mjcable.build(scene, MODEL)
+    implicit = flexrod._implicit_flex_elasticity()
+    euler = mujoco.mjtIntegrator.mjINT_EULER
+    assert spec.option.integrator == (mujoco.mjtIntegrator.mjINT_IMPLICITFAST if implicit else euler)
+    trajectories = []
+    for integrator in ([mujoco.mjtIntegrator.mjINT_IMPLICITFAST, euler] if implicit else [euler]):
+        spec.option.integrator = integrator
+        mj_model = spec.compile()
+        mj_data = mujoco.MjData(mj_model)
+        mujoco.mj_resetDataKeyframe(mj_model, mj_data, 0)
+        for _ in range(250):
+            mujoco.mj_step(mj_model, mj_data)
+        trajectories.append(mj_data.qpos.copy())
+    assert np.all(np.isfinite(trajectories[-1]))
+    np.testing.assert_array_equal(trajectories[0], trajectories[-1])

@@ -47,8 +47,11 @@ def _flexcomp_build(scene, *, timestep, self_collision=False):
     flex.young = cable.young
     flex.poisson = 0.0
     geom = world.cable_geom(scene, self_collision=self_collision)
-    for attribute in ("friction", "condim", "contype", "conaffinity", "material"):
+    for attribute in ("friction", "condim", "contype", "conaffinity"):
         setattr(flex, attribute, geom[attribute])
+    flexrod._set_material(flex, geom["material"])  # a str on MuJoCo 3.x, a list of names on 4.x
+    if stiff and not flexrod._implicit_flex_elasticity():  # MuJoCo 4: no flex bending under implicitfast
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     flex.selfcollide = mujoco.mjtFlexSelf.mjFLEXSELF_AUTO if self_collision else mujoco.mjtFlexSelf.mjFLEXSELF_NONE
     if flexrod.uses_edge_springs(scene, timestep):
         flex.edgestiffness = cable.stretch_stiffness / cable.segment_length

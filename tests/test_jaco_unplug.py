@@ -13,14 +13,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from dm_env import test_utils
 
 import mjcable
 import mjcable.cli
 import mjcable.io
-from mjcable import envs
-from mjcable.envs import jaco_unplug as ju
 from mjcable.worlds import jaco
+
+pytestmark = pytest.mark.envs  # dm_control: the MuJoCo-4 CI job selects every test here out (-m "not envs")
+try:
+    from dm_env import test_utils
+
+    from mjcable import envs
+    from mjcable.envs import jaco_unplug as ju
+except ImportError:  # dm_control missing or not running on this MuJoCo: the module collects, its tests are selected out
+    test_utils = envs = ju = None
 
 TASK = "jaco_unplug"
 MODELS = tuple(mjcable.catalog.names())
@@ -42,7 +48,7 @@ def _random_actions(spec, count: int, seed: int):
 # --- dm_env's own conformance suite, for every model ----------------------------------------------------------------
 
 
-class _Conformance(test_utils.EnvironmentTestMixin):
+class _Conformance(test_utils.EnvironmentTestMixin if test_utils else object):
     model = None
 
     def make_object_under_test(self):

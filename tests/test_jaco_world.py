@@ -6,6 +6,8 @@ import pytest
 
 from mjcable.worlds import jaco
 
+pytestmark = pytest.mark.envs  # the arm and hand are dm_control's Kinova models
+
 
 @pytest.fixture(scope="module")
 def model() -> mujoco.MjModel:

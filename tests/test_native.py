@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import mjcable
+from catalog_params import model_params
 from mjcable.scenes import HANG_HEIGHT, HANG_LENGTH, HANG_SPAN
 
 CATENARY_TOL = 5e-3  # m, every particle (the bound for native models at the default dt)
@@ -14,7 +15,7 @@ def hang():
     return mjcable.scenes.get("hang", n_segments=50, damping=3.0)
 
 
-@pytest.mark.parametrize("model", mjcable.NATIVE_MODELS)
+@pytest.mark.parametrize("model", model_params("native"))
 def test_settles_to_the_inextensible_catenary(model, hang, catenary):
     sim = mjcable.Simulator(hang, model)  # default dt = 0.002
     sim.step(6.0)
@@ -34,7 +35,7 @@ def _after(sim, seconds):
     return sim.positions
 
 
-@pytest.mark.parametrize("model", mjcable.NATIVE_MODELS)
+@pytest.mark.parametrize("model", model_params("native"))
 def test_same_physical_cable_in_every_model(model, hang):
     sim = mjcable.Simulator(hang, model)
     np.testing.assert_allclose(sim.positions, hang.cable.particles, atol=1e-9)
@@ -44,7 +45,7 @@ def test_same_physical_cable_in_every_model(model, hang):
     assert chords.sum() == pytest.approx(HANG_LENGTH, rel=1e-9)
 
 
-@pytest.mark.parametrize("model", mjcable.NATIVE_MODELS)
+@pytest.mark.parametrize("model", model_params("native"))
 @pytest.mark.parametrize("scene_name", mjcable.scenes.names())
 def test_builtin_scenes_run_without_warnings(model, scene_name):
     scene = mjcable.scenes.get(scene_name, n_segments=30)

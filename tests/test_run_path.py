@@ -221,6 +221,7 @@ def test_step_along_rejects_a_path_of_the_wrong_shape_or_not_finite(path, messag
     assert sim.steps == 0
 
 
+@pytest.mark.envs
 def test_an_environment_control_step_runs_in_the_compiled_loop(monkeypatch):
     """unplug on xpbd: a moving control step is one call of the compiled loop (contact queries inside it), and one
     more after a socket lets go (the environment recomputes the rest of the path without its tether)."""

@@ -9,11 +9,13 @@ import pytest
 from scipy import optimize
 
 import mjcable
+from catalog_params import model_params
 from mjcable import catalog
 from mjcable.scenes import HANG_LENGTH, HANG_SPAN
 
 G = 9.81
 MODELS = mjcable.MODELS
+MODEL_PARAMS = model_params()
 REST_SECONDS = 4.0  # s: the 20-segment hang, damped at DAMPING, is at rest (checked below)
 DAMPING = 6.0  # 1/s
 
@@ -39,7 +41,7 @@ def catenary_parameter(length: float, span: float) -> float:
     return optimize.brentq(lambda a: 2 * a * np.sinh(span / (2 * a)) - length, 1e-3 * span, 1e3 * span, xtol=1e-15)
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_pin_forces_of_a_hanging_cable_carry_its_weight_and_the_catenary_tension(model, hang, at_rest):
     sim = at_rest[model]
     assert np.abs(sim.velocities).max() < 2e-3, "not at rest"
@@ -56,7 +58,7 @@ def test_pin_forces_of_a_hanging_cable_carry_its_weight_and_the_catenary_tension
     np.testing.assert_allclose(sim.pin_torques, 0.0, atol=1e-5 * weight * HANG_LENGTH)  # world pins, no clamps
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_clamped_cantilever_pin_carries_weight_and_moment(model):
     """A clamped horizontal rod (stiff enough for every model at the default dt): the clamp's force is the weight
     and its torque the weight's moment about the root, W·x̄ (x̄ the centre of mass's lever arm), in whatever shape
@@ -74,7 +76,7 @@ def test_clamped_cantilever_pin_carries_weight_and_moment(model):
     assert -sim.pin_torques[0, 1] == pytest.approx(weight * lever, rel=0.03)
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_reset_restores_the_start_exactly(model):
     scene = mjcable.scenes.get("socket", n_segments=12, damping=1.0)
     sim = mjcable.Simulator(scene, model)
@@ -93,7 +95,7 @@ def test_reset_restores_the_start_exactly(model):
     np.testing.assert_array_equal(sim.positions, first)  # the same run again, bit for bit
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_rollout_equals_repeated_steps(model):
     scene = mjcable.scenes.get("table", n_segments=12)
     stepped = mjcable.Simulator(scene, model)
@@ -127,7 +129,7 @@ def test_rollout_validates_and_records_the_current_state_without_a_whole_step(ha
         sim.rollout(-1.0)
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_settings_rebuild_the_same_simulator(model):
     scene = mjcable.scenes.get("table", n_segments=10)
     sim = mjcable.Simulator(scene, model, dt=0.004)
@@ -141,7 +143,7 @@ def test_settings_rebuild_the_same_simulator(model):
     np.testing.assert_array_equal(again.positions, sim.positions)
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_velocities_are_the_rate_of_change_of_positions(model):
     scene = mjcable.Scene(mjcable.CableSpec([[0, 0, 2], [0.5, 0, 2.2], [1, 0, 2]], 10, 0.005, 0.1))
     sim = mjcable.Simulator(scene, model, dt=0.001)
@@ -155,7 +157,7 @@ def test_velocities_are_the_rate_of_change_of_positions(model):
     np.testing.assert_allclose((x1 - x0) / sim.dt, 0.5 * (v0 + v1), atol=0.02)
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_energy_of_a_free_fall_is_conserved_and_damping_only_removes_it(model):
     cable = mjcable.CableSpec([[0, 0, 2], [1, 0, 2]], 10, 0.005, 0.1)
     sim = mjcable.Simulator(mjcable.Scene(cable), model, dt=0.001)
@@ -171,7 +173,7 @@ def test_energy_of_a_free_fall_is_conserved_and_damping_only_removes_it(model):
     assert energies[-1] < energies[0]
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_point_mass_adds_its_weight_to_the_pins_and_survives_reset(model, hang):
     sim = mjcable.Simulator(hang, model)
     load = 0.05  # kg at the middle particle
@@ -227,3 +229,19 @@ def test_settings_with_user_constraints_rebuild_the_same_simulator(hang):
     again.step(0.2)
     np.testing.assert_array_equal(again.positions, sim.positions)
     assert sim.positions[10, 2] > 0.8 - 1e-9  # the user's floor holds
+
+
+def test_composite_is_in_the_catalogue_exactly_where_the_cable_plugin_is():
+    """MuJoCo 3.x: composite is registered. MuJoCo 4 (no cable plugin): it is not, and every way of asking for it
+    raises a ValueError that says MuJoCo 4 removed the plugin and names the models that bend instead."""
+    from mjcable.mjcf import composite
+
+    if composite.missing_plugin() is None:
+        assert "composite" in mjcable.MODELS and not catalog.unavailable()
+        return
+    assert "composite" not in mjcable.MODELS and set(catalog.unavailable()) == {"composite"}
+    scene = mjcable.scenes.get("hang")
+    for ask in (lambda: mjcable.Simulator(scene, "composite"), lambda: catalog.get("composite"),
+                lambda: mjcable.build(scene, "composite"), lambda: composite.build(scene, timestep=0.002)):
+        with pytest.raises(ValueError, match=r"MuJoCo 4 removed.*flexrod, joints, and xpbd, pbd or jakobsen"):
+            ask()

@@ -15,6 +15,7 @@ import pytest
 from scipy.special import ellipk
 
 import mjcable
+from catalog_params import marked, model_params
 from mjcable import CableSpec, Pin, Scene, Simulator
 from mjcable.mjcf import springs as springs_mjcf
 
@@ -22,7 +23,8 @@ MODELS = tuple(mjcable.catalog.names())
 INEXTENSIBLE = ("joints", "composite", "flexrod", "xpbd")
 # the physics tests' quick run: pbd and jakobsen (Gauss-Seidel cousins of xpbd, a few seconds each) go with the slow
 # tests, which CI runs too
-PHYSICS_MODELS = tuple(m if m not in ("pbd", "jakobsen") else pytest.param(m, marks=pytest.mark.slow) for m in MODELS)
+PHYSICS_MODELS = tuple(marked(m) if m not in ("pbd", "jakobsen") else pytest.param(m, marks=pytest.mark.slow)
+                       for m in MODELS)
 # flexrod's soft edge equality and pins need substeps under an end mass 100-2000 times a particle's
 SETTINGS = {"flexrod": {"substeps": 4}}
 
@@ -208,7 +210,7 @@ def test_bad_worlds_and_body_pins_are_rejected_with_the_reason(tmp_path):
     assert Scene(cable, (Pin(-1, "body", body="box"),), world=spec, keyframe="home").world.keyframe == "home"
 
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", model_params())
 def test_a_cable_starts_from_the_worlds_keyframe_and_keeps_its_keyframes(model):
     xml = """<mujoco><worldbody><body name="arm" pos="0 0 1"><joint name="shoulder" axis="0 1 0"/>
       <geom name="link" type="capsule" fromto="0 0 0 0.2 0 0" size="0.01" mass="0.2"/></body></worldbody>

@@ -31,15 +31,19 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
-from dm_control.rl import control
+from mjcable import _dm_control
 
-from mjcable import render
-from mjcable import catalog
-from mjcable.envs import base, drape, jaco_unplug, reach_sag, unplug  # noqa: F401  (importing registers the tasks)
-from mjcable.envs.batch import BatchEnv, load_batch
-from mjcable.envs.base import (DEFAULT_CONTROL_TIMESTEP, FAMILY_DEFAULTS, MAX_GRIPPER_SPEED, SUITE, CablePhysics,
-                               CableTask, env_defaults)
-from mjcable.envs.workspace import STRETCH_MARGIN, Workspace
+_dm_control.check()  # a clear ImportError where dm_control is missing or does not run on the installed MuJoCo
+
+from dm_control.rl import control  # noqa: E402
+
+from mjcable import render  # noqa: E402
+from mjcable import catalog  # noqa: E402
+from mjcable.envs import base, drape, jaco_unplug, reach_sag, unplug  # noqa: E402, F401  (registers the tasks)
+from mjcable.envs.batch import BatchEnv, load_batch  # noqa: E402
+from mjcable.envs.base import (  # noqa: E402
+    DEFAULT_CONTROL_TIMESTEP, FAMILY_DEFAULTS, MAX_GRIPPER_SPEED, SUITE, CablePhysics, CableTask, env_defaults)
+from mjcable.envs.workspace import STRETCH_MARGIN, Workspace  # noqa: E402
 
 __all__ = [
     "load",

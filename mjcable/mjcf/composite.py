@@ -1,5 +1,9 @@
 """``composite``: MuJoCo's ``<composite type="cable">`` with the ``mujoco.elasticity.cable`` plugin.
 
+MuJoCo 4 removed the cable plugin: :func:`missing_plugin` says whether the installed MuJoCo lacks it (and why that
+matters), the catalogue registers ``composite`` only where it is there, and :func:`add_cable` refuses to build
+without it (a chain without the plugin would silently be ``joints`` without bending).
+
 The model that MuJoCo's ``<composite type="cable" initial="none">`` generates, built directly with the MjSpec API
 (:func:`add_cable`) so that it can be added into any spec, a user's world included (a composite is XML only, and
 attaching a parsed one into another spec leaves an unnamed default class that ``to_xml`` cannot reload): a chain of
@@ -50,19 +54,42 @@ gripper held by an equality at the far leaf of the chain diverges (see ``joints`
 
 from __future__ import annotations
 
+import functools
+from typing import Optional
+
 import mujoco
 import numpy as np
 
 from mjcable.mjcf import joints, snap, world
 from mjcable.scene import Scene
 
-__all__ = ["build", "add_cable", "body_name", "joint_name", "plugin_moduli", "POISSON", "PREFIX", "PLUGIN", "INSTANCE"]
+__all__ = ["build", "add_cable", "missing_plugin", "body_name", "joint_name", "plugin_moduli", "POISSON", "PREFIX",
+           "PLUGIN", "INSTANCE", "BENDING_ALTERNATIVES"]
 
 POISSON = 0.5  # Poisson's ratio ν of the cable, for the plugin's shear modulus G = E / (2 (1 + ν))
 PREFIX = "cable"
 PLUGIN = "mujoco.elasticity.cable"
 INSTANCE = f"composite{PREFIX}"  # the plugin instance's name, as <composite> names it
 _HIDDEN_GROUP = 3  # the group of the composite's own joints and sites (hidden in viewers by default)
+BENDING_ALTERNATIVES = "flexrod, joints, and xpbd, pbd or jakobsen with bending (young > 0)"
+"""The models that bend a cable where the cable plugin is missing."""
+
+
+@functools.cache
+def missing_plugin() -> Optional[str]:
+    """``None`` where the installed MuJoCo has the cable plugin; otherwise why ``composite`` cannot be built there,
+    as a message naming the models that bend instead (found by compiling a spec that activates the plugin, so it
+    holds whatever MuJoCo's version)."""
+    probe = mujoco.MjSpec()
+    probe.activate_plugin(PLUGIN)
+    probe.add_plugin(name=INSTANCE, plugin_name=PLUGIN, active=True)
+    try:
+        probe.compile()
+    except ValueError as error:
+        return (f"model 'composite' needs MuJoCo's cable plugin {PLUGIN!r}, which MuJoCo 4 removed (installed: "
+                f"MuJoCo {mujoco.__version__}: {str(error).splitlines()[0]}); models that bend a cable on it: "
+                f"{BENDING_ALTERNATIVES}. For composite, install MuJoCo 3.x: pip install \"mujoco>=3.17,<4\"")
+    return None
 
 
 def body_name(i: int, n_segments: int) -> str:
@@ -112,7 +139,13 @@ def add_cable(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, self_collis
 
     Callers snap the spec (:func:`mjcable.mjcf.snap.snap_spec`) before compiling or saving it, as :func:`build`
     does.
+
+    Raises:
+      ValueError: the installed MuJoCo has no cable plugin (MuJoCo 4; :func:`missing_plugin` says why).
     """
+    reason = missing_plugin()
+    if reason is not None:
+        raise ValueError(reason)
     cable = scene.cable
     n = cable.n_segments
     l0 = cable.segment_length

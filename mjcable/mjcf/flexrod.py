@@ -42,7 +42,12 @@ Mapping from the physical cable (MuJoCo 3.17; the numbers below were measured on
   own weight) that is ``n < sqrt(L / g) / h``, about 160 segments for a 1 m cable at h = 0.002 s (measured on ``hang``,
   whose top tension is 0.6 m g: 160 segments are stable, 200 fold up within 0.1 s). :func:`max_timestep` and
   :func:`stable_substeps` apply both rules; :func:`build` warns when the timestep breaks one.
-* damping rate c (1/s): slide-joint damping ``c·mᵢ`` (implicit in ``implicitfast``, zero at rest). MuJoCo 3.17
+* integrator: the world's (``implicitfast`` in the built-in scenes), except for a stiff cable (young > 0) on a
+  MuJoCo that refuses flex bending under ``implicit``/``implicitfast`` (MuJoCo 4): then the spec steps with
+  ``Euler``, a user world's included. The trajectories are the same: the only velocity-dependent forces of the
+  cable are its slide joints' damping, which both integrate implicitly, and bending is explicit in both (on MuJoCo
+  3.17 a stiff cantilever steps bit for bit the same under either).
+* damping rate c (1/s): slide-joint damping ``c·mᵢ`` (implicit in ``implicitfast`` and ``Euler``, zero at rest). MuJoCo 3.17
   refuses joint damping on a bare flex vertex body (three slide joints and nothing else), so each vertex body also
   carries a contact-free marker sphere; it changes nothing else (trajectories are identical to the bit).
 * contacts: the flex collides as capsules of the cable radius around its edges, with the cable's μ, condim,
@@ -60,6 +65,7 @@ Mapping from the physical cable (MuJoCo 3.17; the numbers below were measured on
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 
@@ -93,6 +99,27 @@ _G = -float(GRAVITY[2])  # m/s²
 _SUBSTEP_SLACK = 1e-9  # forgives round-off when dt is an exact multiple of the longest stable timestep
 _MARKER_GROUP = 3  # geom group hidden by default in MuJoCo's viewers
 _SPHERE_INERTIA = 0.4  # I = 2/5 m r² of a vertex body (slide joints only: it never rotates)
+_IMPLICIT = (mujoco.mjtIntegrator.mjINT_IMPLICIT, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
+
+
+@functools.cache
+def _implicit_flex_elasticity() -> bool:
+    """Whether the installed MuJoCo compiles a flex with bending (young > 0) under ``implicitfast`` (MuJoCo 3.x does;
+    MuJoCo 4 refuses: "flex elasticity is no longer integrated implicitly"). Found by compiling a two-edge flex."""
+    spec = mujoco.MjSpec()
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    for i in range(3):
+        body = spec.worldbody.add_body(name=f"v{i}", pos=[0.1 * i, 0.0, 0.0], mass=1.0, ipos=[0.0, 0.0, 0.0],
+                                       inertia=[1e-3] * 3, explicitinertial=True)
+        for axis in np.eye(3):
+            body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis)
+    spec.add_flex(name="probe", dim=1, vertbody=["v0", "v1", "v2"], elem=[0, 1, 1, 2], radius=0.01, young=1e3,
+                  poisson=0.0)
+    try:
+        spec.compile()
+    except ValueError:
+        return False
+    return True
 
 
 def vertex_body(i: int) -> str:
@@ -193,6 +220,8 @@ def _add_cable(spec: mujoco.MjSpec, scene: Scene, timestep: float, self_collisio
     stiff = cable.young > 0.0
     rest = _straight(scene) if stiff else cable.particles
     _check_stability(scene, timestep, stacklevel)
+    if stiff and spec.option.integrator in _IMPLICIT and not _implicit_flex_elasticity():
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     base_qpos, base_mocap = _base_pose(spec) if stiff else (np.zeros(0), [])
 
     masses = cable.particle_masses
@@ -209,14 +238,15 @@ def _add_cable(spec: mujoco.MjSpec, scene: Scene, timestep: float, self_collisio
 
     geom = world.cable_geom(scene, self_collision=self_collision)
     springs = uses_edge_springs(scene, timestep)
-    spec.add_flex(
+    flex = spec.add_flex(
         name=FLEX, dim=1, vertbody=[vertex_body(i) for i in range(n)],
         elem=np.column_stack([np.arange(n - 1), np.arange(1, n)]).ravel().tolist(),
         radius=cable.radius, young=cable.young,
         poisson=0.0,  # unused by a 1D flex; 0 keeps it in MuJoCo's valid range [0, 0.5)
         selfcollide=(mujoco.mjtFlexSelf.mjFLEXSELF_AUTO if self_collision else mujoco.mjtFlexSelf.mjFLEXSELF_NONE),
         edgestiffness=cable.stretch_stiffness / cable.segment_length if springs else 0.0,
-        **{attribute: geom[attribute] for attribute in ("friction", "condim", "contype", "conaffinity", "material")})
+        **{attribute: geom[attribute] for attribute in ("friction", "condim", "contype", "conaffinity")})
+    _set_material(flex, geom["material"])
     if not springs:
         spec.add_equality(name=_EDGE_EQUALITY, type=mujoco.mjtEq.mjEQ_FLEX, name1=FLEX,
                           solref=[EDGE_SOLREF_STEPS * timestep, 1.0], solimp=EDGE_SOLIMP)
@@ -229,6 +259,13 @@ def _add_cable(spec: mujoco.MjSpec, scene: Scene, timestep: float, self_collisio
         extra = dict(mpos=np.ravel([pos for pos, _ in mocap]), mquat=np.ravel([q for _, q in mocap])) if mocap else {}
         spec.add_key(name=START_KEY, qpos=np.concatenate([base_qpos, (cable.particles - rest).ravel()]), **extra)
     return spec
+
+
+def _set_material(flex: mujoco.MjsFlex, material: str) -> None:
+    """Give ``flex`` the material named ``material`` in whichever form the installed MuJoCo has: one name (a ``str``,
+    MuJoCo 3.x) or a list of names (MuJoCo 4, where ``MjSpec.add_flex(material=...)`` takes ``list[str]``); the form
+    is read off the flex itself, not off a version number."""
+    flex.material = material if isinstance(flex.material, str) else [material]
 
 
 def _base_pose(spec: mujoco.MjSpec) -> tuple:

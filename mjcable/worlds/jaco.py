@@ -2,7 +2,8 @@
 socket.
 
 Built with :class:`mujoco.MjSpec` only. The arm and hand come from dm_control
-(:mod:`dm_control.entities.manipulators.kinova`), exported as MJCF and attached under :data:`ARM_PREFIX`, so every
+(:mod:`dm_control.entities.manipulators.kinova`; imported when a world is built, and only its MJCF models are used,
+so the world builds on MuJoCo 4 too, where dm_control's ``Physics`` does not run), exported as MJCF and attached under :data:`ARM_PREFIX`, so every
 arm and hand name reads as it would in a dm_control composer arena (``jaco_arm/joint_1``,
 ``jaco_arm/jaco_hand/finger_1``, ...). Everything else (bench, wall, socket, sites, camera, lights, floor) is added
 here with the names below.
@@ -180,7 +181,13 @@ def home_finger_qpos() -> np.ndarray:
 def _arm_spec() -> mujoco.MjSpec:
     """dm_control's Jaco arm with the hand attached at the wrist, as a fresh :class:`mujoco.MjSpec` (velocity servos,
     torque sensors, meshes in ``spec.assets``)."""
-    from dm_control.entities.manipulators import kinova  # heavy import, only when a world is built
+    try:
+        from dm_control.entities.manipulators import kinova  # heavy import, only when a world is built
+    except ImportError as error:
+        raise ImportError(f"the Jaco world takes its arm and hand from dm_control's Kinova models, and dm_control "
+                          f"cannot be imported ({error}); install it with python -m pip install dm-control (the "
+                          f"world needs only its MJCF models, which load on MuJoCo 3.17 to 4.x; the environments "
+                          f"of mjcable.envs need pip install \"mjcable[envs]\")") from error
 
     arm = kinova.JacoArm()
     arm.attach(kinova.JacoHand())
