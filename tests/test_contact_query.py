@@ -1,6 +1,12 @@
 """The particle solvers' contact query (``mjcable.solvers.query_kernels.contacts_from_mujoco``) against geometry."""
 
+import dataclasses
+
+import mujoco
+import numpy as np
+
 import mjcable
+from mjcable.solvers import kernels, kernels_layout, query_kernels
 
 
 def test_a_cable_resting_on_a_table_has_one_contact_per_particle():
@@ -12,4 +18,98 @@ def test_a_cable_resting_on_a_table_has_one_contact_per_particle():
     sim.step(1.0)
     z = sim.positions[:, 2]
     assert z.max() - z.min() < 1e-6  # at rest on the table top, every particle on it
+    # the steps at rest keep the contacts of the last query, run as the cable came to rest: query again now
+    sim._backend.arrays.par[0]["query_margin"] = -np.inf
+    sim.step()
     assert sim.diagnostics["contacts"] == scene.cable.n_segments + 1
+
+
+def test_a_cable_at_rest_keeps_its_last_query():
+    """Issue 18: nothing moves, so nothing needs querying. A cable lying still on the table runs far fewer
+    ``mj_collision`` queries than steps (every step queried before the rule), and stays on the table top."""
+    scene = mjcable.scenes.get("table")
+    sim = mjcable.Simulator(scene, "xpbd")
+    sim.step(2.0)  # falls for 0.2 s, lands, comes to rest
+    before, steps = sim.diagnostics["queries"], sim.steps
+    sim.step(1.0)
+    assert sim.diagnostics["queries"] - before < 0.05 * (sim.steps - steps)
+    z = sim.positions[:, 2]
+    top = mjcable.scenes.TABLE_TOP + scene.cable.radius
+    np.testing.assert_allclose(z, top, atol=1e-4)  # resting on the top, not sunk into it
+    assert sim.diagnostics["contacts"] >= scene.cable.n_segments + 1  # its contacts kept: every particle's
+
+
+def _fresh_pairs(sim, margin: float) -> set:
+    """(segment, obstacle geom) of every pair MuJoCo finds within ``margin`` m at the cable's current positions: a
+    fresh ``mj_collision`` on a data copy (the model's pair margins restored after)."""
+    backend = sim._backend
+    m, n = sim.mj_model, sim.scene.cable.n_segments
+    d = mujoco.MjData(m)
+    query_kernels.proxy_poses(sim.positions, d.mocap_pos[:n], d.mocap_quat[:n])
+    saved = m.pair_margin.copy()
+    m.pair_margin[backend._obstacles.pairs] = margin
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_collision(m, d)
+    m.pair_margin[:] = saved
+    seg = backend._obstacles.segment_of_geom
+    pairs = set()
+    for g0, g1 in d.contact.geom[:d.ncon]:
+        if (seg[g0] >= 0) != (seg[g1] >= 0):
+            pairs.add((int(max(seg[g0], seg[g1])), int(g0 if seg[g0] < 0 else g1)))
+    return pairs
+
+
+def _kept_covers(sim, pair) -> bool:
+    """Whether the step's contacts act on ``pair`` = (segment, obstacle geom): a contact of that segment with that
+    obstacle, or one at either of its particles (the query keeps one contact where two capsules meet)."""
+    backend = sim._backend
+    n = int(backend.arrays.par[0]["n_con"])
+    seg, geo = (a[:n] for a in kernels_layout.contact_buffers(backend.state)[:2])
+    geoms = backend._obstacles.obstacle_geoms[geo[:, 6].astype(int)]
+    i, g = pair
+    same = geoms == g
+    at_start = (seg == i - 1) & (geo[:, 0] == 1.0) | (seg == i) & (geo[:, 0] == 0.0)
+    at_end = (seg == i) & (geo[:, 0] == 1.0) | (seg == i + 1) & (geo[:, 0] == 0.0)
+    return bool(np.any(same & ((seg == i) | at_start | at_end)))
+
+
+def test_a_kept_query_holds_every_pair_a_step_needs_while_a_gripper_drags_the_cable_off_the_table():
+    """A cable held by a gripper lies at rest on the table (0.6 s), then is dragged off its edge onto the floor (2 s)
+    and lies there (1 s). Before every step that keeps the last query's contacts (no new ``mj_collision``), every pair that MuJoCo finds within
+    the step's margin at that moment is among them; and the cable never sinks into the table or the floor."""
+    table = mjcable.scenes.get("table", n_segments=30)
+    z = mjcable.scenes.TABLE_TOP + table.cable.radius
+    cable = dataclasses.replace(table.cable, points=((-0.5, 0.0, z), (0.5, 0.0, z)))  # straight, on the top
+    scene = dataclasses.replace(table, cable=cable, pins=(mjcable.Pin(0, "gripper"),))
+    sim = mjcable.Simulator(scene, "xpbd")
+    backend = sim._backend
+    start = sim.gripper_positions[0]
+    edge = np.array([-0.7, 0.0, start[2]])  # past the table's edge (x = -0.6), then down and away to the floor
+    end = np.array([-2.0, 0.0, 0.02])
+
+    def leg(a, b, steps):
+        return a + np.linspace(0.0, 1.0, steps)[:, None] * (b - a)
+
+    path = np.concatenate([np.repeat(start[None], 300, axis=0), leg(start, edge, 200), leg(edge, end, 800),
+                           np.repeat(end[None], 500, axis=0)])  # 0.6 s at rest, 2 s dragged (up to 1.2 m/s), 1 s
+    kept = queried = 0
+    r = scene.cable.radius
+    a, par = backend.arrays, backend.arrays.par[0]
+    for target in path:  # one step at a time, checked before each
+        margin = kernels.step_margin(a.v, sim.settings.contact_margin, sim.dt, par["fall"])
+        queries = sim.diagnostics["queries"]
+        sim.move_gripper(0, target)
+        if query_kernels.query_holds(a.x, margin, a.query_x, par["query_margin"]):
+            need = _fresh_pairs(sim, margin)
+            missing = [p for p in need if not _kept_covers(sim, p)]
+            assert not missing, f"step {sim.steps}: pairs within the step's margin not kept: {missing}"
+            kept += 1
+        sim.step()
+        queried += sim.diagnostics["queries"] - queries
+        x = sim.positions
+        assert x[:, 2].min() > -1e-3 + r  # never through the floor
+        over = (np.abs(x[:, 0]) < 0.6 - r) & (np.abs(x[:, 1]) < 0.4 - r)  # over or under the table's 4 cm slab
+        top, bottom = mjcable.scenes.TABLE_TOP, mjcable.scenes.TABLE_TOP - 0.04
+        assert not np.any((x[over, 2] < top + r - 1e-3) & (x[over, 2] > bottom - r + 1e-3))  # never inside it
+    x = sim.positions
+    assert np.all(x[:, 2] < 0.05) and kept > 100 and queried > 50  # it reached the floor; both kinds of step ran

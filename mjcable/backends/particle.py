@@ -109,6 +109,8 @@ class ParticleBackend:
             a.update(self._host.fields)
             for name, value in self._host.params.items():
                 self._par[name] = value
+        # a query's contacts may be kept by later steps only with static obstacles and no user world
+        self._par["keep_queries"] = o is not None and not o.moving and self._host is None
         self.state = layout.assemble(a)
         self._start = {name: a[name].copy() for name in _RESET}  # reset() copies these back
         self.timing = {"solve": 0.0, "sync": 0.0}

@@ -62,7 +62,7 @@ from mjcable.solvers.kernels_layout import (
     RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, SolverState,  # noqa: F401
 )
 from mjcable.solvers.monitor_kernels import step_check
-from mjcable.solvers.query_kernels import query_obstacles, self_contacts
+from mjcable.solvers.query_kernels import query_holds, query_obstacles, self_contacts
 
 __all__ = ["SolverState", "run_steps", "run_phase", "substep", "begin_substep", "iterate", "end_substep",
            "is_plain", "plain_substep", "step_margin", "touches_obstacles", "xpbd_multiplier", "stretch_step",
@@ -387,25 +387,39 @@ def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
 @_inline
 def _step_contacts(S, given):
     """The contacts of the next step into the state (``par.n_con``, ``par.n_self``): none while the cable's reach
-    (:func:`step_margin` + radius) touches no obstacle's bounds, else MuJoCo's query
-    (:func:`~mjcable.solvers.query_kernels.query_obstacles`), and the self contacts with ``par.self_collision``.
-    ``given``: the obstacle contacts are already there (Python queried them). Returns False, with the margin in
-    ``par.margin``, when Python must query this step's obstacle contacts through the bindings (``QUERY_PYTHON``)."""
+    (:func:`step_margin` + radius) touches no obstacle's bounds; the last query's while they still hold every pair
+    the step needs (static obstacles: :func:`~mjcable.solvers.query_kernels.query_holds`); else MuJoCo's query
+    (:func:`~mjcable.solvers.query_kernels.query_obstacles`, its margin widened by ``par.query_slack`` so that later
+    steps may keep it); and the self contacts with ``par.self_collision``. ``given``: the obstacle contacts are
+    already there (Python queried them at ``par.margin``). Returns False, with the margin in ``par.margin``, when
+    Python must query this step's obstacle contacts through the bindings (``QUERY_PYTHON``)."""
     P = S.par[0]
+    x = S.x
     obstacles = S.box_lo.shape[0] + S.plane_n.shape[0] > 0
     n_con = n_self = 0
     if obstacles or P.self_collision:  # (nothing to measure on a free cable)
         margin = step_margin(S.v, P.contact_margin, P.dt, P.fall)
-        if obstacles and touches_obstacles(S.x, margin + P.radius, S.box_lo, S.box_hi, S.plane_n, S.plane_p):
+        if obstacles and touches_obstacles(x, margin + P.radius, S.box_lo, S.box_hi, S.plane_n, S.plane_p):
+            wide = margin + P.query_slack if P.keep_queries else margin
+            fresh = True
             if given:
                 n_con = P.n_con
+                wide = P.margin
+            elif P.keep_queries and query_holds(x, margin, S.query_x, P.query_margin):
+                n_con = P.n_con  # the last query's contacts, still in the buffers
+                fresh = False
             else:
-                n_con = query_obstacles(S, margin) if P.query == QUERY_COMPILED else -1
+                n_con = query_obstacles(S, wide) if P.query == QUERY_COMPILED else -1
                 if n_con < 0:  # the C API's query is unavailable (or its contact array misplaced): Python's
                     P.query = QUERY_PYTHON
-                    P.margin = margin
+                    P.margin = wide
                     return False
                 P.queries += 1
+            if P.keep_queries and fresh:  # a new query: where it was taken, and its margin
+                S.query_x[:, :] = x
+                P.query_margin = wide
+        else:
+            P.query_margin = -math.inf  # (its contacts are dropped: the next step that needs them queries)
         if P.host:  # a user world's mj_step must not see the proxy's pairs
             for p in range(P.pair_start, P.pair_stop):
                 S.pair_margin[p] = PAIRS_OFF

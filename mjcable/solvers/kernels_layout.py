@@ -70,6 +70,10 @@ PARAMS = np.dtype([
     # adds to one step's travel, ½ g dt² (m)
     ("dt", "f8"), ("max_distance", "f8"), ("max_speed", "f8"), ("contact_margin", "f8"), ("fall", "f8"),
     ("self_collision", "?"), ("query", "i8"),  # QUERY_*
+    # the last obstacle query's margin (m; −inf: none to keep), kept by the steps whose pairs it still holds
+    # (query_kernels.query_holds), whether queries may be kept (static obstacles, no user world), and the slack (m)
+    # added to a query's margin so that they can be
+    ("query_margin", "f8"), ("keep_queries", "?"), ("query_slack", "f8"),
     # MuJoCo's C API (mjcable.solvers.capi): entry points, the proxy's (or user world's) mjModel and mjData, the word
     # indices of mjData.ncon (int32) and mjData.contact (int64), the arena's address, sizeof(mjContact) and the
     # byte offsets of its dist, pos, frame and geom, the cable's pairs' rows of pair_margin
@@ -103,6 +107,7 @@ FIELDS = (
     ("w", _F1, "(N,) 1/kg inverse masses (0: held)"), ("mass", _F1, "(N,) kg lumped masses"),
     ("react", _F2, "(N, 3) kg·m Σ ∇C Δλ a held particle collects"), ("dx", _F2, "(N, 3) m Jacobi corrections"),
     ("count", _F1, "(N,) Jacobi constraint counts"), ("prev", _F2, "(N, 3) m positions before the step"),
+    ("query_x", _F2, "(N, 3) m positions at the last obstacle query"),
     ("rest", _F1, "(n,) m stretch rest lengths"), ("lam_s", _F1, "(n,) stretch multipliers"),
     ("rest_d", _F1, "(n-1,) m distance-bending rest lengths"), ("lam_d", _F1, "(n-1,) their multipliers"),
     ("lam_b", _F2, "(n-1, 3) curvature multipliers"),
@@ -174,8 +179,9 @@ STATE_TYPE = SolverStateType([(name, typ) for name, typ, _ in FIELDS])
 
 
 @_jit
-def _chain(S, x, v, x0, w, mass, react, dx, count, prev, par):
-    S.x, S.v, S.x0, S.w, S.mass, S.react, S.dx, S.count, S.prev, S.par = x, v, x0, w, mass, react, dx, count, prev, par
+def _chain(S, x, v, x0, w, mass, react, dx, count, prev, query_x, par):
+    S.x, S.v, S.x0, S.w, S.mass, S.react, S.dx, S.count = x, v, x0, w, mass, react, dx, count
+    S.prev, S.query_x, S.par = prev, query_x, par
 
 
 @_jit
@@ -249,7 +255,7 @@ def _new():
 
 #: the parts in the order :func:`assemble` sets them, each with its setter: every field of FIELDS once
 _PARTS = (
-    (_chain, ("x", "v", "x0", "w", "mass", "react", "dx", "count", "prev", "par")),
+    (_chain, ("x", "v", "x0", "w", "mass", "react", "dx", "count", "prev", "query_x", "par")),
     (_constraints, ("rest", "lam_s", "rest_d", "lam_d", "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c")),
     (_pins, ("pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force", "pin_sum", "pin_count")),
     (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs")),

@@ -5,6 +5,20 @@ step driver (:func:`mjcable.solvers.kernels.run_steps`), which queries between s
 Both turn MuJoCo's contacts into the solver's with :func:`_take_contact`. The bounding-box test that skips the query
 (``touches_obstacles``) lives in :mod:`mjcable.solvers.kernels`.
 
+**Reusing a query** (:func:`query_holds`). A step needs every pair of a segment and an obstacle closer than its
+margin m (:func:`mjcable.solvers.kernels.step_margin`: the contact margin plus the step's travel). A query run with
+the margin m_q at positions x_q found every pair closer than m_q; a pair it did not find was farther than m_q, and
+after every particle has moved by at most δ = maxₚ |xₚ − x_qₚ| it is farther than m_q − δ (a segment's axis point
+is a convex combination of its two particles, so it moves by at most δ too, and the proxy capsule, of the rest
+length, follows it to within the cable's strain; static obstacles do not move). So the last query's contacts still
+hold every pair a step needs while m_q − δ ≥ m, and the query need not run again; each contact is measured against
+the obstacle's real shape in every substep anyway (:func:`mjcable.solvers.contact_kernels.contact_sweep`), and one
+found farther than needed does nothing while it does not press. The step loop queries with m_q = m +
+``query_slack`` (:class:`mjcable.solvers.settings.ParticleSettings`), so a cable at rest keeps one query's contacts
+for as long as it stays within the slack of where it was. A kept contact keeps its point on the segment and its
+normal from the query, which go stale as the cable moves: the slack also bounds that (so it is microns, not
+millimetres: the setting's comment). Not for moving obstacles or a user world: their queries are never kept.
+
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
 """
@@ -21,7 +35,7 @@ from numba.extending import intrinsic
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
 from mjcable.solvers.kernels_layout import SH_POS, SH_ROT
 
-__all__ = ["find_self_contacts", "self_contacts", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
+__all__ = ["find_self_contacts", "self_contacts", "query_holds", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
            "refresh_moving", "proxy_poses", "segment_closest"]
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction
@@ -179,6 +193,22 @@ def _call_model_data(typingctx, fn, model, data):
         return context.get_dummy_value()
 
     return types.void(fn, model, data), codegen
+
+
+@_inline
+def query_holds(x, margin, query_x, query_margin):
+    """Whether the last query's contacts hold every pair a step at positions ``x`` (N, 3) m needs within ``margin``
+    m: maxₚ |xₚ − ``query_x``ₚ| ≤ ``query_margin`` − ``margin`` (module docstring, "Reusing a query"). False for
+    none recorded (−inf) and for a non-finite state or margin."""
+    room = query_margin - margin
+    if not room >= 0.0:  # (also NaN)
+        return False
+    room2 = room * room
+    for p in range(x.shape[0]):
+        dx, dy, dz = x[p, 0] - query_x[p, 0], x[p, 1] - query_x[p, 1], x[p, 2] - query_x[p, 2]
+        if not dx * dx + dy * dy + dz * dz <= room2:
+            return False
+    return True
 
 
 @_jit

@@ -26,6 +26,7 @@ __all__ = [
     "BENDING_KINDS",
     "INTEGRATORS",
     "DEFAULT_CONTACT_MARGIN",
+    "DEFAULT_QUERY_SLACK",
     "DEFAULT_SUBSTEPS",
     "bending_kind",
 ]
@@ -34,6 +35,11 @@ ORDERS = ("gauss-seidel", "jacobi", "direct")
 BENDING_KINDS = ("auto", "none", "curvature", "distance")
 INTEGRATORS = ("euler", "verlet")
 DEFAULT_CONTACT_MARGIN = 0.005  # m, added to the distance the cable can travel in one step (see contacts.py)
+# m, added to a contact query's margin so that the next steps may keep its contacts: a cable at rest (moving
+# microns) stops querying, a moving one queries as before. Kept contacts go stale by up to this much (their point on
+# the segment and normal): 0.2 mm already made the capstan's rope creep at 0.85 of its slip load (pbd, 3.5 mm/s),
+# 1-2.5 mm made it slide at 0.6 (tests/test_particle_contacts.py).
+DEFAULT_QUERY_SLACK = 1e-5
 DEFAULT_SUBSTEPS = 4  # substeps per dt of every particle solver (Small Steps: substeps beat iterations)
 _MAX_OMEGA = 2.0  # Jacobi over-relaxation must stay below 2 to converge
 
@@ -53,7 +59,12 @@ class ParticleSettings:
         ``"none"``), ``"none"``, ``"curvature"`` (the discrete curvature vector at every interior particle) or
         ``"distance"`` (the thesis's next-neighbour (i, i+2) stick of rest length 2 l₀).
       contact_margin: metres (>= 0) added to the distance the cable may travel in one ``dt`` when contacts are
-        queried from MuJoCo once per step.
+        queried from MuJoCo.
+      query_slack: metres (>= 0) added to a contact query's margin, so that the steps after it keep its contacts
+        instead of querying again while every particle stays within ``query_slack`` (less the growth of the step's
+        own margin) of where it was at the query (static obstacles only;
+        :mod:`mjcable.solvers.query_kernels`, "Reusing a query"). Kept contacts keep their point on the segment
+        and normal: the slack bounds how stale they get.
       self_collision: collide non-adjacent segments with each other (no friction).
     """
 
@@ -63,6 +74,7 @@ class ParticleSettings:
     omega: float = 1.0
     bending: str = "auto"
     contact_margin: float = DEFAULT_CONTACT_MARGIN
+    query_slack: float = DEFAULT_QUERY_SLACK
     self_collision: bool = False
 
     def __post_init__(self):
@@ -72,6 +84,7 @@ class ParticleSettings:
         _validate.number("omega", self.omega, low=0.0, high=_MAX_OMEGA, low_open=True)
         _validate.choice("bending", self.bending, BENDING_KINDS)
         _validate.number("contact_margin", self.contact_margin, low=0.0, unit="m")
+        _validate.number("query_slack", self.query_slack, low=0.0, unit="m")
         _validate.boolean("self_collision", self.self_collision)
 
 

@@ -161,12 +161,12 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt,
             max_distance=math.inf, max_speed=math.inf, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
-            query=layout.QUERY_NONE, warning=-1).items():
+            query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1).items():
         P[name] = value
     n_pins = len(pins)
     a = StateArrays(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
-        count=np.zeros(n_particles), prev=x.copy(),
+        count=np.zeros(n_particles), prev=x.copy(), query_x=x.copy(),
         rest=np.full(n, l0), lam_s=np.zeros(n),
         rest_d=np.full(max(n - 1, 0), 2.0 * l0), lam_d=np.zeros(max(n - 1, 0)), lam_b=np.zeros((max(n - 1, 0), 3)),
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
