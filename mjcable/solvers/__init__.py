@@ -14,6 +14,7 @@ setting                   meaning                                               
 ``omega`` (1.0)           Jacobi relaxation in (0, 2]                             all
 ``bending`` ("auto")      ``"none"``, ``"curvature"``, ``"distance"``             all
 ``contact_margin``        metres added to one step's travel for the query         all
+``query_slack``           metres added to a query's margin for later steps' reuse all
 ``self_collision``        collide non-adjacent segments                           all
 ``stretch_factor`` (1.0)  stretch k in [0, 1]                                     jakobsen, pbd
 ``bend_factor``           bending k in [0, 1] (default: derived from E·I)         jakobsen, pbd
