@@ -4,9 +4,11 @@ Prints a markdown table (the README's "Speed" section shows one) of:
 
 * ``hang`` (50 segments, ``xpbd`` with ``order="gauss-seidel", substeps=4, iterations=1``): ``step(1.0)``, 500
   steps from the start state, against :func:`minimal_loop` doing the same 2,000 substeps on the same particles;
-* ``table`` (the same settings): ``step(1.0)`` with the cable lying on the table (every step queries contacts),
-  against the kernel plus one ``mj_collision`` per step, on solver state and proxy built like the backend's from
-  the simulator's own positions and velocities; and ``step(1.0)`` from the start (the cable falls for 0.2 s first);
+* ``table`` (the same settings): ``step(1.0)`` with the cable lying on the table, against the compiled substep
+  kernel plus the ``mj_collision`` queries the step made, on a second simulator's state; and ``step(1.0)`` from the
+  start (the cable falls for 0.2 s first);
+* cost against length: ``hang`` on ``xpbd`` (defaults) at 50, 400 and 1600 segments (:func:`bench_length.measure`);
+* a resting cable: ``table`` at rest against ``hang``, 200 segments, ``xpbd`` defaults (:func:`bench_skip.measure`);
 * every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed);
 * the ``unplug`` environment on ``xpbd``: 200 control steps against a bare Simulator rebuilt from the environment's
   own, stepping the same simulated time (:func:`bench_env.bench`; the issue's bar is 1.3×);
@@ -35,6 +37,8 @@ import numpy as np
 
 import bench_batch  # scripts/bench_batch.py, beside this script
 import bench_env  # scripts/bench_env.py, beside this script
+import bench_length  # scripts/bench_length.py, beside this script
+import bench_skip  # scripts/bench_skip.py, beside this script
 import mjcable
 from mjcable import catalog
 from mjcable.solvers import kernels
@@ -242,6 +246,14 @@ def main() -> None:
           f"time / 2-thread time; {b['throughput'][2]:,.0f} vs {b['throughput'][1]:,.0f} cable-steps/s; copy 0 "
           f"{'equals' if b['identical'] else 'DIFFERS FROM'} a Simulator) | {b['times'][2] * ms:.2f} ms | "
           f"{b['times'][1] * ms:.2f} ms | {b['times'][1] / b['times'][2]:.2f}× |")
+    lengths = bench_length.measure(ns=(50, 400, 1600), repeats=args.repeats)
+    print(f"| `hang`, xpbd (defaults), wall s per simulated s at 1600 segments vs 400 (50: "
+          f"{lengths[50]:.4f} s/s) | {lengths[1600]:.4f} s/s | {lengths[400]:.4f} s/s | "
+          f"{lengths[1600] / lengths[400]:.2f}× |")
+    rest = bench_skip.measure(model="xpbd", n_segments=200, repeats=args.repeats)
+    print(f"| `table` at rest, 200 segments, xpbd (defaults): `step(1.0)` vs the same cable's `hang` `step(1.0)` "
+          f"({rest['queries_per_step']:.2f} queries per step, {rest['contacts']} contacts) | "
+          f"{rest['table_s'] * ms:.2f} ms | {rest['hang_s'] * ms:.2f} ms | {rest['ratio']:.2f}× |")
     for model, sec in bench_native(args.repeats).items():
         shown = f"{sec * ms:.2f} ms" if isinstance(sec, float) else f"unavailable ({type(sec).__name__})"
         print(f"| `hang`, 50 segments, {model} (native, defaults): `step(1.0)` | {shown} | | |")

@@ -47,19 +47,17 @@ scheme is explicit in the body: it does not move under the contact within the su
 With the cable pinned to the body's surface by the contact (normal contact, sticking friction), the relative velocity
 along the contact is multiplied by −m / M every substep (m the cable mass the contacts move with the body, M the
 body's effective mass 1/(nᵀ J M⁻¹ Jᵀ n) along the contact): stable for m / M < 1, whatever h. Beyond, the normal
-contact chatters (measured, ``scripts/bench_two_way_limit.py``: a 0.1 kg cable lying on a box on a spring settles to
-1e-13 m for m / M ≤ 1, chatters by 2 µm at m / M = 1.25, 0.4 mm at 2 and 3 mm at 5–10, its mean sag still Hooke's
-within 1.1 %), and sticking friction becomes a bounded stick-slip cycle (the cone caps each substep's impulse at
+contact chatters (``scripts/bench_two_way_limit.py``; ``docs/measurements.md``), and sticking friction becomes a
+bounded stick-slip cycle (the cone caps each substep's impulse at
 μ λₙ). Where the world's own constraints hold the body along the contact (a box resting on a table under the cable)
 its effective mass is that of what holds it, and a box 10 times lighter than the cable on it stays at rest. Pins
 keep their scheme above; a pinned particle's contact shares (held particles collect ∇C Δλ) count in j.
 A cable squeezed between a body and another face rubs on both (:mod:`~mjcable.solvers.contact_kernels`: a particle's
 cone sums the normal impulses of opposite faces, and its friction is shared among the obstacles in proportion to
 them): a weight of mass W lying on a cable on a table takes μ (2 W + m) g to pull the cable out and is dragged by
-μ W g, within 1 % with ``xpbd``'s direct order (``tests/test_two_way_contacts.py``). Measured limit: under such a
-squeeze the body's explicit contact force alternates between about 0 and 2 W g from substep to substep, and with
-Gauss-Seidel orders (``pbd``, ``jakobsen``, ``xpbd`` with ``order="gauss-seidel"``) the single sweep then keeps
-only about a quarter of the friction (a strict xfail records it).
+μ W g, within 1 % with ``xpbd``'s direct order (``tests/test_two_way_contacts.py``). Under such a squeeze the
+body's explicit contact force alternates from substep to substep, and the Gauss-Seidel orders' single sweep then
+keeps only part of the friction (a strict xfail records it; ``docs/measurements.md``).
 
 The host's substeps run inside the particle solvers' compiled step loop (:mod:`mjcable.solvers.host_kernels`,
 MuJoCo called through its C API: :func:`mjcable.solvers.capi.host_functions`). A MuJoCo *error* inside such a call

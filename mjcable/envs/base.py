@@ -17,17 +17,9 @@ starts with :meth:`mjcable.Simulator.reset` (the exact start state, bit for bit)
 (a task drawing a random start shape) builds a new Simulator, with the same model, ``dt`` and settings.
 
 Environment settings (:func:`env_defaults`): the particle family takes ``substeps=10`` unless the caller sets
-``substeps``; every other setting is the Simulator's default. Measured on the ``unplug`` task's cable (the
-``socket`` scene's 0.1 kg, 0.77 m, 50 segments; ``dt`` = 2 ms, 1 iteration):
-
-* stretch of that cable hung straight down with a 2 N load at its end (tension 2.0 N at the load, 3.0 N at the top),
-  after 3 s: ``jakobsen`` and ``pbd`` 1.98 % at the catalogue's default of 4 substeps, 0.32 % at 10; ``xpbd``
-  (direct order) 0.000 % at both;
-* ``unplug``'s steady pull (the gripper drawn away from the socket at 0.05 m/s until the workspace stops it at 99 % of
-  the cable's length): at 4 substeps ``jakobsen`` and ``pbd`` stretch so much that the pull peaks at 1.78 N and the
-  plug (``RELEASE_FORCE`` 2.5 N) never comes out; at 10 substeps it comes out after 1.3 s, as on the native
-  ``springs`` and ``flexrod`` (1.2 s, 1.1 s); ``xpbd`` lets go at the first motion at either setting. A full-speed
-  yank (0.5 m/s) releases every particle model at either setting within two control steps.
+``substeps``; every other setting is the Simulator's default. At the catalogue's 4 substeps, ``jakobsen`` and
+``pbd`` stretch the ``unplug`` task's cable under its pull so much that the plug never comes out; at 10 they let go
+as the native models do (``docs/measurements.md``).
 
 So the environments keep 10 substeps for the particle family (the per-step cost stays well under real time); a model
 registered in the catalogue as ``"particle"`` gets the same.

@@ -8,9 +8,8 @@ How parallel it is: the environments step on a thread pool (as :class:`mjcable.B
 between threads is the work that releases Python's GIL: the particle solvers' compiled steps (a control step's
 gripper path, contact queries included, is one ``nogil`` call: ``Simulator.step_along``) and MuJoCo's ``mj_step``.
 dm_control's step and the tasks' action checks, rewards and observations are Python and hold the GIL, so they run
-one environment at a time. Measured with ``scripts/bench_batch.py --env reach_sag`` on the project's idle 2-core
-machine (32 environments, 50 control steps, 2 threads against 1): ``xpbd`` 1.76×, ``joints`` 1.88×, ``pbd`` 0.96×
-(its control steps are short enough that the Python decides; pass ``threads=1`` there).
+one environment at a time: a model whose control steps are short (``pbd``) gains nothing from threads there
+(``scripts/bench_batch.py --env``; ``docs/measurements.md``).
 """
 
 from __future__ import annotations

@@ -8,11 +8,8 @@ the contacts with the obstacles.
 
 Mocap bodies get no contacts with static geoms (MuJoCo skips pairs of bodies that cannot move), so every capsule
 is paired with every obstacle geom (``obstacle{i}``) by an explicit ``<pair>``. The alternative, one free-joint
-body per segment, lets MuJoCo's broadphase find the pairs. Measured with ``scripts/bench_solvers.py --proxy``
-(table scene, 100 segments, mujoco 3.17, this project's shared 2-core machine, best of 5): ``mj_collision`` takes
-58 µs with pairs and 83 µs with free joints while the cable lies on the table (200 contacts), and 40 µs vs 30 µs
-with the cable in the air. The solvers skip the query altogether while the cable's bounding box touches no
-obstacle's, so the query runs only near contact, where pairs are faster: pairs it is.
+body per segment, lets MuJoCo's broadphase find the pairs: it is faster in the air but slower in contact, and the
+solvers query only near contact, so pairs it is (``docs/measurements.md``).
 
 Gripper pins get their mocap body ``gripper{k}`` (and world/socket pins their anchor site) from
 :func:`mjcable.mjcf.world.add_anchor`, as in the native models.

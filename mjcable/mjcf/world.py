@@ -242,12 +242,9 @@ def reset_to_start(m: mujoco.MjModel, d: mujoco.MjData) -> None:
 
 def stiffen_obstacle_contacts(spec: mujoco.MjSpec, scene: Scene, timestep: float) -> None:
     """Give the scene's obstacles (whose contact parameters take precedence) the contact time constant
-    ``CONTACT_SOLREF_STEPS`` physics steps instead of MuJoCo's default 20 ms. Measured at dt = 2 ms
-    (``mjcable stress``'s plate and ``incline`` families): it stops ``springs`` sinking through a 4 mm plate (4 of 4
-    runs before, 0 after) and its contacts chattering as it slides down a slope (sliding acceleration 34 % too fast
-    before, 1 % after), and the ``joints`` chain draping over a peg pulling through it. ``flexrod`` keeps the
-    default: its flex contacts still tunnel with it, and slide 2 % off Coulomb across a slope (0.3 % with the
-    default)."""
+    ``CONTACT_SOLREF_STEPS`` physics steps instead of MuJoCo's default 20 ms: ``springs`` then no longer sinks
+    through a thin plate nor chatters down a slope, and the ``joints`` chain no longer pulls through a peg.
+    ``flexrod`` keeps the default, which slides closer to Coulomb (``docs/measurements.md``)."""
     for i in range(len(scene.obstacles)):
         spec.geom(f"obstacle{i}").solref = [CONTACT_SOLREF_STEPS * timestep, 1.0]
 

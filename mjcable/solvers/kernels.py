@@ -13,20 +13,18 @@ Held particles (pins) have w = 0; the ∇C Δλ they would receive is summed in 
 known (XPBD's constraint force estimate ∇Cᵀ λ / h², Macklin et al. 2016); sockets decide on its mean over the
 step's substeps (the step's impulse / dt, :func:`end_substep`).
 
-Performance notes (measured, numba 0.68, 100 particles): a per-constraint helper that takes arrays ran 3× slower
-than the same arithmetic written inline, even with ``inline="always"``, and every call passing the 33-array state
-costs microseconds (reference counting per array argument). So the per-constraint functions take and return
-scalars only, the hot sweeps and the substep pieces are inlined into the drivers, the rarely used sweeps are called
-only when they have work (and a chain with stretch constraints only, Gauss-Seidel order and no obstacles takes
-:func:`plain_substep`, the same pieces without the other branches, which cost a third of its time), and the drivers
-take the arrays as separate arguments: ``run_substeps_flat`` (one step) and ``run_steps_flat`` (many whole steps
-with the Simulator's divergence checks and the contact queries, the grippers following a path if given: one call
-per ``step(T)`` or ``step_along(path)``). ``error_model="numpy"``: a division by zero gives inf/NaN (caught as
-divergence). Numba
-caches per file, but :mod:`mjcable.solvers._kernel_cache` stamps every kernel file's cache with all kernel
-files, so the drivers here call projections from sibling files: :mod:`~mjcable.solvers.constraint_kernels`
-(sweeps), :mod:`~mjcable.solvers.direct_kernels` (the direct order) and :mod:`~mjcable.solvers.kernels_layout`
-(indices, codes, :class:`Chain`, :class:`Contacts`); this module re-exports them.
+The drivers take the packed solver state :class:`~mjcable.solvers.kernels_layout.SolverState` (``S``) and a handful
+of arguments: :func:`run_steps` (whole steps: contacts, substeps, a user world's host, divergence checks; one call per
+``Simulator.step(T)``, ``step_along`` or ``rollout``) and :func:`run_phase` (one piece of a step, for PBD's Python
+user constraints). The per-constraint functions take and return scalars, the hot sweeps and the substep's pieces are
+inlined, and the rarely used sweeps are called only when they have work (``docs/measurements.md`` says why).
+``error_model="numpy"``: a division by zero gives inf/NaN (caught as divergence). Numba caches per file, but
+:mod:`mjcable.solvers._kernel_cache` stamps every kernel file's cache with all kernel files, so the drivers here call
+projections from sibling files: :mod:`~mjcable.solvers.constraint_kernels` (sweeps),
+:mod:`~mjcable.solvers.contact_kernels` (contacts and friction), :mod:`~mjcable.solvers.direct_kernels` (the direct
+order), :mod:`~mjcable.solvers.query_kernels` (contact queries), :mod:`~mjcable.solvers.host_kernels` (a user
+world's host), :mod:`~mjcable.solvers.monitor_kernels` (the divergence checks) and
+:mod:`~mjcable.solvers.kernels_layout` (the state, codes); this module re-exports the projections.
 
 References:
   [J01] T. Jakobsen, "Advanced Character Physics", GDC 2001 (in ``shared/seeds``).

@@ -65,7 +65,7 @@ class ParticleSettings:
         own margin) of where it was at the query (static obstacles only;
         :mod:`mjcable.solvers.query_kernels`, "Reusing a query"). Kept contacts keep their point on the segment
         and normal: the slack bounds how stale they get.
-      self_collision: collide non-adjacent segments with each other (no friction).
+      self_collision: collide non-adjacent segments with each other (Coulomb friction with the cable's own μ).
     """
 
     substeps: int = DEFAULT_SUBSTEPS
