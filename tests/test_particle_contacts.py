@@ -68,9 +68,10 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
         shape_pos=np.array([[0.0, 0.0, r]]), shape_rot=np.eye(3)[None].copy(),
         con_seg=np.array([2], dtype=np.int64), con_s=np.array([0.5]), con_normal=np.array([[0.0, 0.0, 1.0]]),
         con_offset=np.array([2 * r]), con_mu=np.array([mu]), con_shape=np.array([0], dtype=np.int64),
-        con_lam=np.zeros(1),
+        con_face=np.array([kernels_layout.BOX_FACE_NONE], dtype=np.int64), con_lam=np.zeros(1),
         fric_n=np.zeros(4), fric_mu=np.zeros(4), fric_slid=np.zeros(4, dtype=np.bool_), fric_nsum=np.zeros((4, 3)),
         fric_impulse=np.zeros((4, 3)), fric_normal=np.zeros((4, 3)), fric_ob=np.zeros(4, dtype=np.int64),
+        fric_unit=np.zeros((4, 3)), fric_push=np.zeros((4, 3)), fric_cone=np.zeros(4),
         anchor=np.zeros((4, 3)), anchor_ob=np.full(4, -1, dtype=np.int64))
     par = a["par"][0]
     par["radius"], par["mu_self"], par["n_con"], par["n_self"] = r, mu, 1, 1

@@ -53,10 +53,10 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER,
-                                            GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_NEGATIVE, GEOM_BOX, GEOM_CAPSULE,
+                                            GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
 
-__all__ = ["shape_distance", "shapes_of", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
+__all__ = ["shape_distance", "shapes_of", "box_face", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
            "reset_friction", "collect_impulses", "body_wrenches"]
 
 
@@ -67,7 +67,21 @@ def shapes_of(S):
 
 
 @_inline
-def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
+def box_face(rot, row, n0x, n0y, n0z):
+    """The face of box ``row`` (rotations ``rot`` (B, 3, 3)) that the detection normal n₀ picks: the face whose
+    outward normal is closest to n₀, as ``BOX_FACE_*`` (axis, plus ``BOX_FACE_NEGATIVE`` for the −axis face)."""
+    mx = rot[row, 0, 0] * n0x + rot[row, 1, 0] * n0y + rot[row, 2, 0] * n0z  # n₀ in the box frame
+    my = rot[row, 0, 1] * n0x + rot[row, 1, 1] * n0y + rot[row, 2, 1] * n0z
+    mz = rot[row, 0, 2] * n0x + rot[row, 1, 2] * n0y + rot[row, 2, 2] * n0z
+    if abs(mx) >= abs(my) and abs(mx) >= abs(mz):
+        return 0 if mx >= 0.0 else BOX_FACE_NEGATIVE
+    if abs(my) >= abs(mz):
+        return 1 if my >= 0.0 else 1 + BOX_FACE_NEGATIVE
+    return 2 if mz >= 0.0 else 2 + BOX_FACE_NEGATIVE
+
+
+@_inline
+def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius, face=-1):
     """(C, n): C = signed distance of the axis point p from the obstacle's surface minus the cable ``radius``, n the
     outward unit normal (world), from row ``row`` of ``shapes`` (a :class:`~mjcable.solvers.kernels_layout.Shapes`:
     MuJoCo geom type, size (3), world position (3) and rotation (3, 3)).
@@ -78,7 +92,8 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
     degenerate point (at a sphere's centre), uses the detection's half-space n₀·p ≥ ``offset``. Sided against
     tunnelling: a point inside a round shape whose normal turned against the detection normal n₀ (it went past
     the centre) keeps the detection half-space, and a box pushes a point out through the face n₀ detected (the
-    face whose normal is closest to n₀), also after the point went through a thin plate."""
+    face whose normal is closest to n₀, :func:`box_face`; ``face``, if not −1, is that face, found once for a static
+    box), also after the point went through a thin plate."""
     typ = shapes.type[row]
     size, pos, rot = shapes.size, shapes.pos, shapes.rot
     sx, sy, sz = size[row, 0], size[row, 1], size[row, 2]
@@ -112,23 +127,22 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
         else:
             d, lz = d_cap, cap
     elif typ == GEOM_BOX:
-        # n₀ in the box frame picks the face
-        mx = rot[row, 0, 0] * n0x + rot[row, 1, 0] * n0y + rot[row, 2, 0] * n0z
-        my = rot[row, 0, 1] * n0x + rot[row, 1, 1] * n0y + rot[row, 2, 1] * n0z
-        mz = rot[row, 0, 2] * n0x + rot[row, 1, 2] * n0y + rot[row, 2, 2] * n0z
+        if face < 0:  # n₀ picks the face
+            face = box_face(rot, row, n0x, n0y, n0z)
+        sign = -1.0 if face >= BOX_FACE_NEGATIVE else 1.0
         ex, ey, ez = abs(qx) - sx, abs(qy) - sy, abs(qz) - sz
-        if abs(mx) >= abs(my) and abs(mx) >= abs(mz):
-            face, sign, qk, hk, beside = 0, (1.0 if mx >= 0.0 else -1.0), qx, sx, ey > 0.0 or ez > 0.0
-        elif abs(my) >= abs(mz):
-            face, sign, qk, hk, beside = 1, (1.0 if my >= 0.0 else -1.0), qy, sy, ex > 0.0 or ez > 0.0
+        if face % BOX_FACE_NEGATIVE == 0:
+            axis, qk, hk, beside = 0, qx, sx, ey > 0.0 or ez > 0.0
+        elif face % BOX_FACE_NEGATIVE == 1:
+            axis, qk, hk, beside = 1, qy, sy, ex > 0.0 or ez > 0.0
         else:
-            face, sign, qk, hk, beside = 2, (1.0 if mz >= 0.0 else -1.0), qz, sz, ex > 0.0 or ey > 0.0
+            axis, qk, hk, beside = 2, qz, sz, ex > 0.0 or ey > 0.0
         if not beside:
             # over the detected face (outside it, inside the box, or through the plate under it): the face's plane,
             # d = sign qₖ − hₖ, n = sign Rₖ (never against n₀), the closest point's d = |qₖ − clamp(qₖ)| without
             # the square root and the rotation (a cable resting on a box takes this branch)
-            return (sign * qk - hk - radius, sign * rot[row, 0, face], sign * rot[row, 1, face],
-                    sign * rot[row, 2, face])
+            return (sign * qk - hk - radius, sign * rot[row, 0, axis], sign * rot[row, 1, axis],
+                    sign * rot[row, 2, axis])
         else:  # beside the face: the closest point on the box
             cx = qx - min(max(qx, -sx), sx)
             cy = qy - min(max(qy, -sy), sy)
@@ -202,8 +216,8 @@ def reset_friction(S):
 @_inline
 def contact_sweep(S):
     """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
-    normal ``con_normal`` and ``con_offset``, ``con_mu``, obstacle row ``con_shape`` or −1, multipliers
-    ``con_lam``). Projects C ≥ 0 (module docstring) against the obstacle's shape, and adds each particle's share of
+    normal ``con_normal`` and ``con_offset``, ``con_mu``, obstacle row ``con_shape`` or −1, a static box's face
+    ``con_face``, multipliers ``con_lam``). Projects C ≥ 0 (module docstring) against the obstacle's shape, and adds each particle's share of
     Δλₙ to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``, ``fric_normal``, the obstacle ``fric_ob``). A
     held particle (w = 0) collects its share of ∇C Δλ in ``react``; a contact nearer a held particle than its
     segment's middle is left to the pin."""
@@ -212,8 +226,8 @@ def contact_sweep(S):
     x, w, react = S.x, S.w, S.react
     fric_n, fric_mu, fric_nsum, fric_normal, fric_ob, anchor_ob = (S.fric_n, S.fric_mu, S.fric_nsum, S.fric_normal,
                                                                    S.fric_ob, S.anchor_ob)
-    seg, con_s, con_normal, con_offset, con_mu, con_shape, lam = (S.con_seg, S.con_s, S.con_normal, S.con_offset,
-                                                                  S.con_mu, S.con_shape, S.con_lam)
+    seg, con_s, con_normal, con_offset, con_mu, con_shape, con_face, lam = (
+        S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam)
     shapes = shapes_of(S)
     for c in range(P.n_con):
         i = seg[c]
@@ -240,7 +254,7 @@ def contact_sweep(S):
         k = con_shape[c]
         if k >= 0:
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
-                                              con_normal[c, 2], con_offset[c], radius)
+                                              con_normal[c, 2], con_offset[c], radius, con_face[c])
         else:
             nx, ny, nz = con_normal[c, 0], con_normal[c, 1], con_normal[c, 2]
             cval = nx * px + ny * py + nz * pz - con_offset[c]
@@ -280,27 +294,17 @@ def contact_sweep(S):
 
 
 @_inline
-def friction_sweep(S):
-    """Coulomb friction of every pressed particle against its anchor (module docstring): the friction sums
-    (``fric_*``) from :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,)
-    (−1: none; a new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
-
-    The cone is the particle's: its normal n̂ is the mean of its pressing contacts' normals, weighted by the
-    particle's share of each (the bisector of two chords on a curve), its normal impulse λₙ = n̂·Σ Δλ_c n_c, and
-    the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
-    (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
-    |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
-    grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
-    outside it)."""
-    x, x0, w, anchor, anchor_ob = S.x, S.x0, S.w, S.anchor, S.anchor_ob
-    fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, fric_ob = (
-        S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum, S.fric_impulse, S.fric_normal, S.fric_ob)
-    shapes = shapes_of(S)
-    for p in range(x.shape[0]):
-        if fric_n[p] <= 0.0 or w[p] == 0.0:
-            continue
-        k = fric_ob[p]
-        if k < 0:
+def _friction_cones(S):
+    """The first pass of :func:`friction_sweep`: each pressed free particle's cone from its sums, its unit normal
+    n̂ (``fric_unit``), the sums' tangential part t_c (``fric_push``) and the cone's radius μ λₙ (``fric_cone``; −1
+    for a particle without friction this substep). The particles' cones do not depend on one another, so this pass
+    runs without the second's chain through the positions."""
+    w, fric_n, fric_mu, fric_nsum, fric_normal, fric_ob = (S.w, S.fric_n, S.fric_mu, S.fric_nsum, S.fric_normal,
+                                                           S.fric_ob)
+    unit, push, cone = S.fric_unit, S.fric_push, S.fric_cone
+    for p in range(w.shape[0]):
+        cone[p] = -1.0
+        if fric_n[p] <= 0.0 or w[p] == 0.0 or fric_ob[p] < 0:
             continue
         sx, sy, sz = fric_nsum[p, 0], fric_nsum[p, 1], fric_nsum[p, 2]  # Σ Δλ_c n_c
         nx, ny, nz = fric_normal[p, 0], fric_normal[p, 1], fric_normal[p, 2]
@@ -312,8 +316,36 @@ def friction_sweep(S):
         lam_n = sx * nx + sy * ny + sz * nz
         if lam_n <= 0.0:
             continue
-        tcx, tcy, tcz = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
-        cone = fric_mu[p] * lam_n
+        unit[p, 0], unit[p, 1], unit[p, 2] = nx, ny, nz
+        push[p, 0], push[p, 1], push[p, 2] = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
+        cone[p] = fric_mu[p] * lam_n
+
+
+@_inline
+def friction_sweep(S):
+    """Coulomb friction of every pressed particle against its anchor (module docstring): the friction sums
+    (``fric_*``) from :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,)
+    (−1: none; a new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
+
+    The cone is the particle's (:func:`_friction_cones`): its normal n̂ is the mean of its pressing contacts'
+    normals, weighted by the particle's share of each (the bisector of two chords on a curve), its normal impulse
+    λₙ = n̂·Σ Δλ_c n_c, and the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
+    (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
+    |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
+    grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
+    outside it)."""
+    _friction_cones(S)
+    x, x0, w, anchor, anchor_ob = S.x, S.x0, S.w, S.anchor, S.anchor_ob
+    fric_slid, fric_impulse, fric_ob = S.fric_slid, S.fric_impulse, S.fric_ob
+    unit, push, cones = S.fric_unit, S.fric_push, S.fric_cone
+    shapes = shapes_of(S)
+    for p in range(x.shape[0]):
+        cone = cones[p]
+        if cone < 0.0:
+            continue
+        k = fric_ob[p]
+        nx, ny, nz = unit[p, 0], unit[p, 1], unit[p, 2]
+        tcx, tcy, tcz = push[p, 0], push[p, 1], push[p, 2]
         if anchor_ob[p] != k:
             anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
             anchor_ob[p] = k

@@ -63,11 +63,13 @@ class ObstacleContacts:
         body = mj_model.geom_bodyid[g]
         #: (M,) the geoms of obstacles on bodies that move (their shapes' poses are refreshed by every query)
         self.moving_geoms = g[(mj_model.body_weldid[body] != 0) | (mj_model.body_mocapid[body] >= 0)]
-        #: (B,), (B, 3), (B, 3), (B, 3, 3): each obstacle's MuJoCo type, size (m), world position (m) and rotation
+        #: (B,), (B, 3), (B, 3), (B, 3, 3), (B,): each obstacle's MuJoCo type, size (m), world position (m) and
+        #: rotation, and whether it moves
         self.shape_type = mj_model.geom_type[g].astype(np.int64)
         self.shape_size = np.array(mj_model.geom_size[g], dtype=np.float64)
         self.shape_pos = np.zeros((len(g), 3))
         self.shape_rot = np.zeros((len(g), 3, 3))
+        self.shape_moves = np.isin(g, self.moving_geoms)
         self._refresh_shapes(g)
         # Static obstacles: world bounding boxes, planes as half-spaces (normal, point); with a moving obstacle the
         # bounds cover all space (every step queries).
@@ -95,7 +97,7 @@ class ObstacleContacts:
         g = self.moving_geoms
         moving = np.stack([g, self.shape_of_geom[g]], axis=1).astype(np.int64).reshape(-1, 2)
         return dict(shape_type=self.shape_type, shape_size=self.shape_size, shape_pos=self.shape_pos,
-                    shape_rot=self.shape_rot, box_lo=self._box_lo, box_hi=self._box_hi, plane_n=self._plane_n,
+                    shape_rot=self.shape_rot, shape_moves=self.shape_moves, box_lo=self._box_lo, box_hi=self._box_hi, plane_n=self._plane_n,
                     plane_p=self._plane_p, pair_margin=m.pair_margin, segment_of_geom=self.segment_of_geom,
                     shape_of_geom=self.shape_of_geom, geom_friction=self.friction, moving=moving,
                     geom_xpos=d.geom_xpos, geom_xmat=d.geom_xmat)

@@ -44,6 +44,8 @@ CHECK_OK, CHECK_NON_FINITE, CHECK_DISTANCE, CHECK_SPEED = 0, 1, 2, 3
 PHASE_BEGIN, PHASE_ITERATE, PHASE_END, PHASE_HOST_BEFORE, PHASE_HOST_AFTER = 0, 1, 2, 3, 4
 # MuJoCo's geom type codes (mujoco.mjtGeom) that the contact kernels measure exactly.
 GEOM_PLANE, GEOM_SPHERE, GEOM_CAPSULE, GEOM_ELLIPSOID, GEOM_CYLINDER, GEOM_BOX = 0, 2, 3, 4, 5, 6
+# A box's faces (SolverState.con_face): +x, +y, +z, −x, −y, −z in the box's frame (axis = face % 3).
+BOX_FACE_NONE, BOX_FACE_NEGATIVE = -1, 3
 #: The obstacle shapes as one argument of the shape kernels (:func:`mjcable.solvers.contact_kernels.shape_distance`):
 #: the state's ``shape_type`` (B,), ``shape_size`` (B, 3) m, ``shape_pos`` (B, 3) m, ``shape_rot`` (B, 3, 3).
 Shapes = namedtuple("Shapes", ("type", "size", "pos", "rot"))
@@ -126,6 +128,9 @@ FIELDS = (
     ("fric_impulse", _F2, "(N, 3) kg·m its friction impulse"),
     ("fric_normal", _F2, "(N, 3) Σ share · n over its pressing contacts (its normal, unnormalised)"),
     ("fric_ob", _I1, "(N,) obstacle row of its friction contact (kept across substeps)"),
+    # the particle's friction cone, from the sums (contact_kernels.friction_sweep's first pass)
+    ("fric_unit", _F2, "(N, 3) its unit normal n̂"), ("fric_push", _F2, "(N, 3) kg·m the sums' tangential part"),
+    ("fric_cone", _F1, "(N,) kg·m the cone's radius μ λₙ (−1: no friction this substep)"),
     ("anchor", _F2, "(N, 3) m friction anchors in their obstacle's frame"),
     ("anchor_ob", _I1, "(N,) the anchors' obstacle rows (−1: none)"),
     # obstacle contacts (C: the buffers' capacity, par.n_con in use; grown together by query_kernels.reserve_contacts)
@@ -133,6 +138,7 @@ FIELDS = (
     ("con_normal", _F2, "(C, 3) the detection's unit normal n₀, from the obstacle to the cable"),
     ("con_offset", _F1, "(C,) m half-space offset: n₀·p ≥ offset (n₀·q + radius, q on the obstacle)"),
     ("con_mu", _F1, "(C,) Coulomb μ"), ("con_shape", _I1, "(C,) the obstacle's shape row (−1: half-space only)"),
+    ("con_face", _I1, "(C,) the face n₀ picks on a static box (BOX_FACE_*; −1: none, or found in every sweep)"),
     ("con_lam", _F1, "(C,) kg·m normal multipliers"),
     # self contacts (S: capacity, par.n_self in use; grown together by query_kernels.self_contacts)
     ("self_pair", _I2, "(S, 2) segments i, j"), ("self_st", _F2, "(S, 2) fractions s, t of the closest points"),
@@ -141,6 +147,7 @@ FIELDS = (
     # obstacle shapes (B rows; contacts and anchors name their row)
     ("shape_type", _I1, "(B,) MuJoCo geom type (mjtGeom)"), ("shape_size", _F2, "(B, 3) m geom size"),
     ("shape_pos", _F2, "(B, 3) m world position"), ("shape_rot", _F3, "(B, 3, 3) world rotation (geom to world)"),
+    ("shape_moves", _B1, "(B,) on a moving body (its pose is refreshed)"),
     # two-way contacts: per obstacle row, Σ Δλ ∇C over a substep (collect_impulses; ÷ h the momentum the contacts
     # gave the cable, ÷ h² the force) and its moment about the world origin; (0, 3) where no body takes them
     ("impulse_force", _F2, "(B, 3) or (0, 3) kg·m"), ("impulse_moment", _F2, "(B, 3) or (0, 3) kg·m²"),
@@ -218,17 +225,20 @@ def _direct(S, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs):
 
 
 @_jit
-def _friction(S, fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, fric_ob, anchor, anchor_ob):
+def _friction(S, fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, fric_ob):
     S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum = fric_n, fric_mu, fric_slid, fric_nsum
-    S.fric_impulse, S.fric_normal, S.fric_ob, S.anchor, S.anchor_ob = (fric_impulse, fric_normal, fric_ob, anchor,
-                                                                       anchor_ob)
+    S.fric_impulse, S.fric_normal, S.fric_ob = fric_impulse, fric_normal, fric_ob
 
 
 @_jit
-def _obstacle_contacts(S, con_seg, con_s, con_normal, con_offset, con_mu, con_shape, con_lam):
-    S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_lam = (con_seg, con_s, con_normal,
-                                                                                       con_offset, con_mu, con_shape,
-                                                                                       con_lam)
+def _anchors(S, fric_unit, fric_push, fric_cone, anchor, anchor_ob):
+    S.fric_unit, S.fric_push, S.fric_cone, S.anchor, S.anchor_ob = fric_unit, fric_push, fric_cone, anchor, anchor_ob
+
+
+@_jit
+def _obstacle_contacts(S, con_seg, con_s, con_normal, con_offset, con_mu, con_shape, con_face, con_lam):
+    S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu = con_seg, con_s, con_normal, con_offset, con_mu
+    S.con_shape, S.con_face, S.con_lam = con_shape, con_face, con_lam
 
 
 @_jit
@@ -238,8 +248,9 @@ def _self_contacts(S, self_pair, self_st, self_normal, self_lam_n, self_lam_t):
 
 
 @_jit
-def _shapes(S, shape_type, shape_size, shape_pos, shape_rot, impulse_force, impulse_moment):
+def _shapes(S, shape_type, shape_size, shape_pos, shape_rot, shape_moves, impulse_force, impulse_moment):
     S.shape_type, S.shape_size, S.shape_pos, S.shape_rot = shape_type, shape_size, shape_pos, shape_rot
+    S.shape_moves = shape_moves
     S.impulse_force, S.impulse_moment = impulse_force, impulse_moment
 
 
@@ -294,11 +305,13 @@ _PARTS = (
     (_constraints, ("rest", "lam_s", "rest_d", "lam_d", "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c")),
     (_pins, ("pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force", "pin_sum", "pin_count")),
     (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs")),
-    (_friction, ("fric_n", "fric_mu", "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor",
-                 "anchor_ob")),
-    (_obstacle_contacts, ("con_seg", "con_s", "con_normal", "con_offset", "con_mu", "con_shape", "con_lam")),
+    (_friction, ("fric_n", "fric_mu", "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob")),
+    (_anchors, ("fric_unit", "fric_push", "fric_cone", "anchor", "anchor_ob")),
+    (_obstacle_contacts, ("con_seg", "con_s", "con_normal", "con_offset", "con_mu", "con_shape", "con_face",
+                          "con_lam")),
     (_self_contacts, ("self_pair", "self_st", "self_normal", "self_lam_n", "self_lam_t")),
-    (_shapes, ("shape_type", "shape_size", "shape_pos", "shape_rot", "impulse_force", "impulse_moment")),
+    (_shapes, ("shape_type", "shape_size", "shape_pos", "shape_rot", "shape_moves", "impulse_force",
+               "impulse_moment")),
     (_query, ("box_lo", "box_hi", "plane_n", "plane_p", "struct_i32", "struct_i64", "arena_f64", "arena_i32",
               "pose_pos", "pose_quat")),
     (_geoms, ("pair_margin", "segment_of_geom", "shape_of_geom", "geom_friction", "moving", "geom_xpos",
@@ -324,9 +337,9 @@ def assemble(arrays: dict) -> SolverState:
 @_jit
 def contact_buffers(S):
     """The obstacle-contact buffers (``con_seg``, ``con_s``, ``con_normal``, ``con_offset``, ``con_mu``,
-    ``con_shape``, ``con_lam``): the compiled query replaces them when they must grow, so Python asks for them
-    rather than keeping its own."""
-    return S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_lam
+    ``con_shape``, ``con_face``, ``con_lam``): the compiled query replaces them when they must grow, so Python asks
+    for them rather than keeping its own."""
+    return S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam
 
 
 @_jit

@@ -33,6 +33,8 @@ from numba import types
 from numba.extending import intrinsic
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
+from mjcable.solvers.contact_kernels import box_face
+from mjcable.solvers.kernels_layout import BOX_FACE_NONE, GEOM_BOX
 
 __all__ = ["find_self_contacts", "self_contacts", "query_holds", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
            "refresh_moving", "proxy_poses", "segment_closest"]
@@ -156,7 +158,11 @@ def _take_contact(S, g0, g1, dist, pos, frame, at_particle, count):
     con_normal[count, 0], con_normal[count, 1], con_normal[count, 2] = nx, ny, nz
     S.con_offset[count] = nx * qx + ny * qy + nz * qz + radius
     S.con_mu[count] = S.geom_friction[other, 0]
-    S.con_shape[count] = shape_of_geom[other]
+    row = shape_of_geom[other]
+    S.con_shape[count] = row
+    # a static box's face, once (a moving box's rotation changes: every sweep finds it)
+    static_box = row >= 0 and S.shape_type[row] == GEOM_BOX and not S.shape_moves[row]
+    S.con_face[count] = box_face(S.shape_rot, row, nx, ny, nz) if static_box else BOX_FACE_NONE
     return count + 1
 
 
@@ -164,7 +170,8 @@ def _take_contact(S, g0, g1, dist, pos, frame, at_particle, count):
 def contacts_from_mujoco(S, geom, dist, pos, frame):
     """Turn MuJoCo's contacts (``geom`` (c, 2), ``dist`` (c,), ``pos`` (c, 3), ``frame`` (c, 9)) between proxy
     capsules and obstacles into the state's contacts: fills its obstacle-contact buffers (segment ``con_seg``,
-    fraction ``con_s``, normal ``con_normal``, ``con_offset``, ``con_mu`` and shape row ``con_shape``, see
+    fraction ``con_s``, normal ``con_normal``, ``con_offset``, ``con_mu``, shape row ``con_shape`` and a static
+    box's face ``con_face``, see
     :func:`mjcable.solvers.contact_kernels.contact_sweep`; ``S.shape_of_geom`` maps a geom id to its shape row, −1
     for none) and returns their number. The buffers must hold ``c`` contacts (:func:`reserve_contacts`).
 
@@ -228,6 +235,7 @@ def reserve_contacts(S, capacity):
         S.con_offset = np.zeros(cap)
         S.con_mu = np.zeros(cap)
         S.con_shape = np.zeros(cap, dtype=np.int64)
+        S.con_face = np.zeros(cap, dtype=np.int64)
         S.con_lam = np.zeros(cap)
 
 

@@ -116,7 +116,7 @@ def _contact_buffers(capacity: int, self_capacity: int) -> dict:
     c, s = capacity, self_capacity
     return dict(con_seg=np.zeros(c, dtype=np.int64), con_s=np.zeros(c), con_normal=np.zeros((c, 3)),
                 con_offset=np.zeros(c), con_mu=np.zeros(c), con_shape=np.zeros(c, dtype=np.int64),
-                con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64), self_st=np.zeros((s, 2)),
+                con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64), self_st=np.zeros((s, 2)),
                 self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s))
 
 
@@ -187,6 +187,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         fric_n=np.zeros(n_particles), fric_mu=np.zeros(n_particles), fric_slid=np.zeros(n_particles, dtype=np.bool_),
         fric_nsum=np.zeros((n_particles, 3)), fric_impulse=np.zeros((n_particles, 3)),
         fric_normal=np.zeros((n_particles, 3)), fric_ob=np.zeros(n_particles, dtype=np.int64),
+        fric_unit=np.zeros((n_particles, 3)), fric_push=np.zeros((n_particles, 3)), fric_cone=np.zeros(n_particles),
         anchor=np.zeros((n_particles, 3)), anchor_ob=np.full(n_particles, -1, dtype=np.int64),
         par=par, **rows, **_contact_buffers(_CONTACT_CAPACITY * n, _SELF_CONTACT_CAPACITY * n))
     for name, typ, _ in layout.FIELDS:  # the query's and the host's fields: empty until the backend fills them
