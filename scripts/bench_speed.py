@@ -157,7 +157,8 @@ def bench_table(repeats: int) -> dict:
     ref = mjcable.Simulator(scene, "xpbd", **SETTINGS)
     ref.step(1.5)
     S, arrays = ref._backend.state, ref._backend.arrays
-    saved = {k: arrays[k].copy() for k in ("x", "v", "x0", "pin_from", "pin_to", "fric", "anchor", "anchor_ob")}
+    saved = {k: arrays[k].copy() for k in ("x", "v", "x0", "pin_from", "pin_to", "fric_n", "fric_mu", "fric_slid",
+                                     "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob")}
     steps = int(round(SECONDS / sim.dt))
     substeps = sim.settings.substeps
     m, d = ref.mj_model, ref.mj_data

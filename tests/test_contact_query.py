@@ -64,12 +64,12 @@ def _kept_covers(sim, pair) -> bool:
     obstacle, or one at either of its particles (the query keeps one contact where two capsules meet)."""
     backend = sim._backend
     n = int(backend.arrays.par[0]["n_con"])
-    seg, geo = (a[:n] for a in kernels_layout.contact_buffers(backend.state)[:2])
-    geoms = backend._obstacles.obstacle_geoms[geo[:, 6].astype(int)]
+    seg, frac, _, _, _, shape = (a[:n] for a in kernels_layout.contact_buffers(backend.state)[:6])
+    geoms = backend._obstacles.obstacle_geoms[shape]
     i, g = pair
     same = geoms == g
-    at_start = (seg == i - 1) & (geo[:, 0] == 1.0) | (seg == i) & (geo[:, 0] == 0.0)
-    at_end = (seg == i) & (geo[:, 0] == 1.0) | (seg == i + 1) & (geo[:, 0] == 0.0)
+    at_start = (seg == i - 1) & (frac == 1.0) | (seg == i) & (frac == 0.0)
+    at_end = (seg == i) & (frac == 1.0) | (seg == i + 1) & (frac == 0.0)
     return bool(np.any(same & ((seg == i) | at_start | at_end)))
 
 

@@ -37,6 +37,16 @@ def test_rope_over_a_peg_obeys_the_heavy_capstan_law(model, dt, settings):
     assert speeds[1.15] > contact.SLIDE_SPEED, speeds
 
 
+def _state(**arrays):
+    """A solver state of ``arrays`` (field name → array), every other field of ``kernels_layout.FIELDS`` empty, and
+    the arrays by name (sharing the state's memory, the parameter record ``par`` among them)."""
+    fields = {name: np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype))) for name, typ, _ in kernels_layout.FIELDS
+              if name != "par"}
+    fields["par"] = np.zeros(1, dtype=kernels_layout.PARAMS)
+    fields.update(arrays)
+    return kernels_layout.assemble(fields), fields
+
+
 def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 4, steps: int = 250,
                  dt: float = 0.002) -> np.ndarray:
     """A free segment (particles 2, 3, along y) lying across a held segment (particles 0, 1, along x) or on a
@@ -48,43 +58,47 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
     x = np.array([[-0.1, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, -0.1, 2 * r], [0.0, 0.1, 2 * r]])
     w = np.array([0.0, 0.0, 1.0, 1.0])  # the lower segment (or the unused pair) is held
     v = np.zeros_like(x)
-    react = np.zeros_like(x)
-    pair = np.array([[2, 0]], dtype=np.int64)
-    sgeo = np.array([[0.5, 0.5, 0.0, 0.0, 1.0]])
-    slam = np.zeros((1, 2))
-    # the table: a plane at z = r under the free segment, through contact_sweep and friction_sweep
-    shapes = np.zeros((1, kernels_layout.N_SH))
-    shapes[0, kernels_layout.SH_TYPE] = mujoco.mjtGeom.mjGEOM_PLANE
-    shapes[0, kernels_layout.SH_ROT:kernels_layout.SH_ROT + 9] = np.eye(3).ravel()
-    shapes[0, kernels_layout.SH_POS + 2] = r
-    seg = np.array([2], dtype=np.int64)
-    geo = np.array([[0.5, 0.0, 0.0, 1.0, 2 * r, mu, 0.0]])
-    lam = np.zeros(1)
-    fric = np.zeros((4, kernels_layout.N_FR))
-    anchor = np.zeros((4, 3))
-    anchor_ob = np.full(4, -1, dtype=np.int64)
+    S, a = _state(
+        x=x, x0=x.copy(), w=w, react=np.zeros_like(x),
+        # the crossing: segment 2 over segment 0, normal +z
+        self_pair=np.array([[2, 0]], dtype=np.int64), self_st=np.array([[0.5, 0.5]]),
+        self_normal=np.array([[0.0, 0.0, 1.0]]), self_lam_n=np.zeros(1), self_lam_t=np.zeros(1),
+        # the table: a plane at z = r under the free segment, through contact_sweep and friction_sweep
+        shape_type=np.array([mujoco.mjtGeom.mjGEOM_PLANE], dtype=np.int64), shape_size=np.zeros((1, 3)),
+        shape_pos=np.array([[0.0, 0.0, r]]), shape_rot=np.eye(3)[None].copy(),
+        con_seg=np.array([2], dtype=np.int64), con_s=np.array([0.5]), con_normal=np.array([[0.0, 0.0, 1.0]]),
+        con_offset=np.array([2 * r]), con_mu=np.array([mu]), con_shape=np.array([0], dtype=np.int64),
+        con_face=np.array([kernels_layout.BOX_FACE_NONE], dtype=np.int64), con_lam=np.zeros(1),
+        fric_n=np.zeros(4), fric_mu=np.zeros(4), fric_slid=np.zeros(4, dtype=np.bool_), fric_nsum=np.zeros((4, 3)),
+        fric_impulse=np.zeros((4, 3)), fric_normal=np.zeros((4, 3)), fric_ob=np.zeros(4, dtype=np.int64),
+        fric_unit=np.zeros((4, 3)), fric_push=np.zeros((4, 3)), fric_cone=np.zeros(4),
+        anchor=np.zeros((4, 3)), anchor_ob=np.full(4, -1, dtype=np.int64))
+    par = a["par"][0]
+    par["radius"], par["mu_self"], par["n_con"], par["n_self"] = r, mu, 1, 1
+    x, x0 = a["x"], a["x0"]
     centre = []
     for _ in range(steps):
         for _ in range(substeps):
-            x0 = x.copy()
+            np.copyto(x0, x)
             v[w > 0] += h * g
             x[w > 0] += h * v[w > 0]
             if self_contact:
-                slam[:] = 0.0
-                contact_kernels.self_contact_sweep(x, x0, w, react, pair, sgeo, 2 * r, mu, slam)
+                a["self_lam_n"][:] = 0.0
+                a["self_lam_t"][:] = 0.0
+                contact_kernels.self_contact_sweep(S)
             else:
-                lam[:] = 0.0
-                _plane_contact(x, x0, w, react, fric, seg, geo, lam, shapes, r, anchor, anchor_ob)
+                a["con_lam"][:] = 0.0
+                _plane_contact(S)
             v = (x - x0) / h
         centre.append(0.5 * (x[2, 0] + x[3, 0]))
     return np.array(centre)
 
 
-def _plane_contact(x, x0, w, react, fric, seg, geo, lam, shapes, r, anchor, anchor_ob):
-    contact_kernels.reset_friction(fric)
-    contact_kernels.contact_sweep(x, w, react, fric, anchor_ob, seg, geo, lam, shapes, r)
-    contact_kernels.friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes)
-    contact_kernels.update_anchors(x, fric, anchor, anchor_ob, shapes)
+def _plane_contact(S):
+    contact_kernels.reset_friction(S)
+    contact_kernels.contact_sweep(S)
+    contact_kernels.friction_sweep(S)
+    contact_kernels.update_anchors(S)
 
 
 @pytest.mark.parametrize("self_contact", [True, False], ids=["on itself", "on a table"])
@@ -123,11 +137,8 @@ def test_obstacle_shapes_measure_the_distance_mujoco_measures(typ, size):
     m = spec.compile()
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    shape = np.zeros(kernels_layout.N_SH)
-    shape[kernels_layout.SH_TYPE] = typ
-    shape[kernels_layout.SH_SIZE:kernels_layout.SH_SIZE + 3] = m.geom_size[0]
-    shape[kernels_layout.SH_POS:kernels_layout.SH_POS + 3] = d.geom_xpos[0]
-    shape[kernels_layout.SH_ROT:kernels_layout.SH_ROT + 9] = d.geom_xmat[0]
+    shape = kernels_layout.Shapes(np.array([typ], dtype=np.int64), m.geom_size[:1].copy(), d.geom_xpos[:1].copy(),
+                                  d.geom_xmat[:1].reshape(1, 3, 3).copy())
     rng = np.random.default_rng(7)
     checked = 0
     fromto = np.zeros(6)
@@ -139,7 +150,7 @@ def test_obstacle_shapes_measure_the_distance_mujoco_measures(typ, size):
         if not 0.001 < ref < 0.02:
             continue
         direction = (fromto[3:] - fromto[:3]) / np.linalg.norm(fromto[3:] - fromto[:3])  # the detection normal
-        cval, nx, ny, nz = contact_kernels.shape_distance(*p, shape[None], 0, *direction, 0.0, 0.0)
+        cval, nx, ny, nz = contact_kernels.shape_distance(*p, shape, 0, *direction, 0.0, 0.0)
         tol = 0.1 * ref if typ == mujoco.mjtGeom.mjGEOM_ELLIPSOID else 1e-6  # ellipsoid: first-order estimate
         assert cval == pytest.approx(ref, abs=tol)
         if typ != mujoco.mjtGeom.mjGEOM_ELLIPSOID:

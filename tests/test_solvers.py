@@ -213,10 +213,10 @@ def test_self_collision_keeps_segments_apart():
         sim = mjcable.Simulator(scene, "xpbd", substeps=4, self_collision=on)
         sim.step(1.0)
         x = sim.positions
-        pair, geo = np.zeros((4000, 2), dtype=np.int64), np.zeros((4000, 5))
-        count = query_kernels.find_self_contacts(x, 0.05, pair, geo)
-        a = (1 - geo[:count, :1]) * x[pair[:count, 0]] + geo[:count, :1] * x[pair[:count, 0] + 1]
-        b = (1 - geo[:count, 1:2]) * x[pair[:count, 1]] + geo[:count, 1:2] * x[pair[:count, 1] + 1]
+        pair, st, normal = np.zeros((4000, 2), dtype=np.int64), np.zeros((4000, 2)), np.zeros((4000, 3))
+        count = query_kernels.find_self_contacts(x, 0.05, pair, st, normal)
+        a = (1 - st[:count, :1]) * x[pair[:count, 0]] + st[:count, :1] * x[pair[:count, 0] + 1]
+        b = (1 - st[:count, 1:2]) * x[pair[:count, 1]] + st[:count, 1:2] * x[pair[:count, 1] + 1]
         gaps[on] = np.min(np.linalg.norm(a - b, axis=1))
     assert gaps[False] < 0.005  # the upper loop falls through the lower one
     assert gaps[True] > 2 * 0.005 - 5e-4  # the loops rest on each other

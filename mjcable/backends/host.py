@@ -121,14 +121,14 @@ class Host:
                                  if scene.pins[k].clamp], dtype=np.int64).reshape(-1, 2)
         self.contact_wrench = np.zeros((m.nbody, 6))
         rows = row_bodies = np.zeros(0, dtype=np.int64)
-        impulse = np.zeros((0, 6))
+        n_rows = 0  # obstacle rows of the contact impulses (none: no body takes them)
         if obstacles is not None:
             body = m.geom_bodyid[obstacles.obstacle_geoms]
             weld = m.body_weldid[body]
             dynamic = (weld != 0) & (m.body_mocapid[weld] < 0)  # not welded to the world nor to a mocap body
             rows, row_bodies = np.flatnonzero(dynamic).astype(np.int64), body[dynamic].astype(np.int64)
             if len(rows):
-                impulse = np.zeros((len(body), 6))
+                n_rows = len(body)
         nstate = mujoco.mj_stateSize(m, _STATE)
         L = len(pins)
         self._saved = np.zeros(nstate)
@@ -139,7 +139,8 @@ class Host:
             link_site=self.sites, link_clamp=self._clamps, clamp_local=np.zeros((len(self._clamps), 3, 2)),
             site_xpos=d.site_xpos, xipos=d.xipos, xmat=d.xmat, xfrc_applied=d.xfrc_applied,
             warning_number=d.warning.number, bad=np.array([int(w) for w in _BAD], dtype=np.int64),
-            wrench_rows=rows, wrench_bodies=row_bodies, contact_wrench=self.contact_wrench, impulse=impulse,
+            wrench_rows=rows, wrench_bodies=row_bodies, contact_wrench=self.contact_wrench,
+            impulse_force=np.zeros((n_rows, 3)), impulse_moment=np.zeros((n_rows, 3)),
             saved=np.zeros(nstate), jacp=np.zeros((3, m.nv)), jn=np.zeros((1, m.nv)), solved=np.zeros((1, m.nv)),
             p0=np.zeros((L, 3)), arm=np.zeros((L, 3)), free=np.zeros((L, 3)), free_w=np.zeros(L),
             force=np.zeros((L, 3)), applied=np.zeros((L, 6)))

@@ -152,8 +152,10 @@ def _signed_distances(points, kind, pos, rot, size, d, normals):
 
 
 @numba.njit(cache=True)
-def _violation(p, box, clearance, pins, tether, kind, pos, rot, size, normal):
-    """How far (m) ``p`` lies outside the allowed set: the box, the tethers, the obstacles' clearance."""
+def _violation(p, box, clearance, pins, tether, obstacles, normal):
+    """How far (m) ``p`` lies outside the allowed set: the box, the tethers, the obstacles' clearance (``obstacles``:
+    ``(kind, pos, rot, size)`` of :func:`pack_obstacles`)."""
+    kind, pos, rot, size = obstacles
     worst = 0.0
     for a in range(3):
         worst = max(worst, box[0, a] - p[a], p[a] - box[1, a])
@@ -166,8 +168,9 @@ def _violation(p, box, clearance, pins, tether, kind, pos, rot, size, normal):
 
 
 @numba.njit(cache=True)
-def _project(p, box, clearance, pins, tether, kind, pos, rot, size, normal):
+def _project(p, box, clearance, pins, tether, obstacles, normal):
     """Project ``p`` (3,) onto the allowed set in place; whether it got there within the rounds."""
+    kind, pos, rot, size = obstacles
     for _ in range(PROJECTION_ROUNDS):
         for a in range(3):
             p[a] = min(max(p[a], box[0, a]), box[1, a])
@@ -184,13 +187,13 @@ def _project(p, box, clearance, pins, tether, kind, pos, rot, size, normal):
                 push = clearance - dist
                 for a in range(3):
                     p[a] = p[a] + push * normal[a]
-        if _violation(p, box, clearance, pins, tether, kind, pos, rot, size, normal) <= TOLERANCE:
+        if _violation(p, box, clearance, pins, tether, obstacles, normal) <= TOLERANCE:
             return True
     return False
 
 
 @numba.njit(cache=True)
-def _move(p, sx, sy, sz, box, clearance, pins, tether, kind, pos, rot, size, trial, normal):
+def _move(p, sx, sy, sz, box, clearance, pins, tether, obstacles, trial, normal):
     """Move ``p`` (3,) in place by the displacement (``sx``, ``sy``, ``sz``), increment by increment, clamped;
     ``trial`` and ``normal`` are (3,) scratch arrays."""
     length = _norm3(sx, sy, sz)
@@ -200,20 +203,20 @@ def _move(p, sx, sy, sz, box, clearance, pins, tether, kind, pos, rot, size, tri
     ix, iy, iz = sx / count, sy / count, sz / count
     for _ in range(count):
         trial[0], trial[1], trial[2] = p[0] + ix, p[1] + iy, p[2] + iz
-        if not _project(trial, box, clearance, pins, tether, kind, pos, rot, size, normal):
+        if not _project(trial, box, clearance, pins, tether, obstacles, normal):
             return  # the gripper stops at its last allowed position
         p[0], p[1], p[2] = trial[0], trial[1], trial[2]
 
 
 @numba.njit(cache=True)
-def _move_paths(pins, grippers, displacements, nstep, box, clearance, tethers, kind, pos, rot, size, out, moved):
+def _move_paths(pins, grippers, displacements, nstep, box, clearance, tethers, obstacles, out, moved):
     trial, normal = np.empty(3), np.empty(3)
     for i in range(out.shape[0]):
         for g in range(grippers.shape[0]):
             k = grippers[g]
             x, y, z = pins[k, 0], pins[k, 1], pins[k, 2]
             _move(pins[k], displacements[g, 0] / nstep, displacements[g, 1] / nstep, displacements[g, 2] / nstep,
-                  box, clearance, pins, tethers[k], kind, pos, rot, size, trial, normal)
+                  box, clearance, pins, tethers[k], obstacles, trial, normal)
             moved[i, g] = pins[k, 0] != x or pins[k, 1] != y or pins[k, 2] != z
             out[i, g] = pins[k]
 
@@ -252,8 +255,7 @@ def violation(p, box, clearance: float, pins, tether, obstacles) -> float:
       tether: (n_pins,) the longest allowed distance to each pin in metres (``inf``: no tether).
       obstacles: ``(kind, pos, rot, size)`` of :func:`pack_obstacles`.
     """
-    kind, pos, rot, size = obstacles
-    return float(_violation(np.asarray(p, dtype=np.float64), box, clearance, pins, tether, kind, pos, rot, size,
+    return float(_violation(np.asarray(p, dtype=np.float64), box, clearance, pins, tether, tuple(obstacles),
                             np.empty(3)))
 
 
@@ -283,5 +285,5 @@ def move_paths(pins, grippers, displacements, nstep: int, box, clearance: float,
     count = nstep if steps is None else steps
     out = np.empty((count, len(grippers), 3))
     moved = np.empty((count, len(grippers)), dtype=np.bool_)
-    _move_paths(pins, grippers, displacements, nstep, box, clearance, tethers, *obstacles, out, moved)
+    _move_paths(pins, grippers, displacements, nstep, box, clearance, tethers, tuple(obstacles), out, moved)
     return out, moved

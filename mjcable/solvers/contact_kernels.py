@@ -53,20 +53,38 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, FR_FN, FR_FT, FR_GN, FR_MU, FR_NX, FR_OB,
-                                            FR_SLID, IM_F, IM_M,
-                                            GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE,
-                                            GEOM_SPHERE, SH_POS, SH_ROT, SH_SIZE, SH_TYPE)
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_NEGATIVE, GEOM_BOX, GEOM_CAPSULE,
+                                            GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
 
-__all__ = ["shape_distance", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
+__all__ = ["shape_distance", "shapes_of", "box_face", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
            "reset_friction", "collect_impulses", "body_wrenches"]
 
 
 @_inline
-def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
+def shapes_of(S):
+    """The state's obstacle shapes as one :class:`~mjcable.solvers.kernels_layout.Shapes` (views, no copies)."""
+    return Shapes(S.shape_type, S.shape_size, S.shape_pos, S.shape_rot)
+
+
+@_inline
+def box_face(rot, row, n0x, n0y, n0z):
+    """The face of box ``row`` (rotations ``rot`` (B, 3, 3)) that the detection normal n₀ picks: the face whose
+    outward normal is closest to n₀, as ``BOX_FACE_*`` (axis, plus ``BOX_FACE_NEGATIVE`` for the −axis face)."""
+    mx = rot[row, 0, 0] * n0x + rot[row, 1, 0] * n0y + rot[row, 2, 0] * n0z  # n₀ in the box frame
+    my = rot[row, 0, 1] * n0x + rot[row, 1, 1] * n0y + rot[row, 2, 1] * n0z
+    mz = rot[row, 0, 2] * n0x + rot[row, 1, 2] * n0y + rot[row, 2, 2] * n0z
+    if abs(mx) >= abs(my) and abs(mx) >= abs(mz):
+        return 0 if mx >= 0.0 else BOX_FACE_NEGATIVE
+    if abs(my) >= abs(mz):
+        return 1 if my >= 0.0 else 1 + BOX_FACE_NEGATIVE
+    return 2 if mz >= 0.0 else 2 + BOX_FACE_NEGATIVE
+
+
+@_inline
+def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius, face=-1):
     """(C, n): C = signed distance of the axis point p from the obstacle's surface minus the cable ``radius``, n the
-    outward unit normal (world), from row ``row`` of ``shapes`` (B, 16) = [MuJoCo geom type, size (3), pos (3),
-    row-major rot (9)].
+    outward unit normal (world), from row ``row`` of ``shapes`` (a :class:`~mjcable.solvers.kernels_layout.Shapes`:
+    MuJoCo geom type, size (3), world position (3) and rotation (3, 3)).
 
     Exact closest points for spheres, capsules, cylinders and boxes, the plane's half-space, and for ellipsoids the
     estimate k₀ (k₀ − 1) / k₁ with k₀ = |q / a|, k₁ = |q / a²| (exact on the surface and along the axes; Quílez's
@@ -74,15 +92,16 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
     degenerate point (at a sphere's centre), uses the detection's half-space n₀·p ≥ ``offset``. Sided against
     tunnelling: a point inside a round shape whose normal turned against the detection normal n₀ (it went past
     the centre) keeps the detection half-space, and a box pushes a point out through the face n₀ detected (the
-    face whose normal is closest to n₀), also after the point went through a thin plate."""
-    typ = int(shapes[row, SH_TYPE])
-    sx, sy, sz = shapes[row, SH_SIZE], shapes[row, SH_SIZE + 1], shapes[row, SH_SIZE + 2]
-    r = SH_ROT
-    dx, dy, dz = px - shapes[row, SH_POS], py - shapes[row, SH_POS + 1], pz - shapes[row, SH_POS + 2]
+    face whose normal is closest to n₀, :func:`box_face`; ``face``, if not −1, is that face, found once for a static
+    box), also after the point went through a thin plate."""
+    typ = shapes.type[row]
+    size, pos, rot = shapes.size, shapes.pos, shapes.rot
+    sx, sy, sz = size[row, 0], size[row, 1], size[row, 2]
+    dx, dy, dz = px - pos[row, 0], py - pos[row, 1], pz - pos[row, 2]
     # q = Rᵀ (p − pos): the point in the geom frame
-    qx = shapes[row, r] * dx + shapes[row, r + 3] * dy + shapes[row, r + 6] * dz
-    qy = shapes[row, r + 1] * dx + shapes[row, r + 4] * dy + shapes[row, r + 7] * dz
-    qz = shapes[row, r + 2] * dx + shapes[row, r + 5] * dy + shapes[row, r + 8] * dz
+    qx = rot[row, 0, 0] * dx + rot[row, 1, 0] * dy + rot[row, 2, 0] * dz
+    qy = rot[row, 0, 1] * dx + rot[row, 1, 1] * dy + rot[row, 2, 1] * dz
+    qz = rot[row, 0, 2] * dx + rot[row, 1, 2] * dy + rot[row, 2, 2] * dz
     lx, ly, lz, d, exact = 0.0, 0.0, 1.0, 0.0, True
     if typ == GEOM_PLANE:
         d = qz
@@ -108,23 +127,22 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
         else:
             d, lz = d_cap, cap
     elif typ == GEOM_BOX:
-        # n₀ in the box frame picks the face
-        mx = shapes[row, r] * n0x + shapes[row, r + 3] * n0y + shapes[row, r + 6] * n0z
-        my = shapes[row, r + 1] * n0x + shapes[row, r + 4] * n0y + shapes[row, r + 7] * n0z
-        mz = shapes[row, r + 2] * n0x + shapes[row, r + 5] * n0y + shapes[row, r + 8] * n0z
+        if face < 0:  # n₀ picks the face
+            face = box_face(rot, row, n0x, n0y, n0z)
+        sign = -1.0 if face >= BOX_FACE_NEGATIVE else 1.0
         ex, ey, ez = abs(qx) - sx, abs(qy) - sy, abs(qz) - sz
-        if abs(mx) >= abs(my) and abs(mx) >= abs(mz):
-            face, sign, qk, hk, beside = 0, (1.0 if mx >= 0.0 else -1.0), qx, sx, ey > 0.0 or ez > 0.0
-        elif abs(my) >= abs(mz):
-            face, sign, qk, hk, beside = 1, (1.0 if my >= 0.0 else -1.0), qy, sy, ex > 0.0 or ez > 0.0
+        if face % BOX_FACE_NEGATIVE == 0:
+            axis, qk, hk, beside = 0, qx, sx, ey > 0.0 or ez > 0.0
+        elif face % BOX_FACE_NEGATIVE == 1:
+            axis, qk, hk, beside = 1, qy, sy, ex > 0.0 or ez > 0.0
         else:
-            face, sign, qk, hk, beside = 2, (1.0 if mz >= 0.0 else -1.0), qz, sz, ex > 0.0 or ey > 0.0
+            axis, qk, hk, beside = 2, qz, sz, ex > 0.0 or ey > 0.0
         if not beside:
             # over the detected face (outside it, inside the box, or through the plate under it): the face's plane,
             # d = sign qₖ − hₖ, n = sign Rₖ (never against n₀), the closest point's d = |qₖ − clamp(qₖ)| without
             # the square root and the rotation (a cable resting on a box takes this branch)
-            return (sign * qk - hk - radius, sign * shapes[row, r + face], sign * shapes[row, r + 3 + face],
-                    sign * shapes[row, r + 6 + face])
+            return (sign * qk - hk - radius, sign * rot[row, 0, axis], sign * rot[row, 1, axis],
+                    sign * rot[row, 2, axis])
         else:  # beside the face: the closest point on the box
             cx = qx - min(max(qx, -sx), sx)
             cy = qy - min(max(qy, -sy), sy)
@@ -145,9 +163,9 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
             exact = False
     else:
         exact = False
-    nx = shapes[row, r] * lx + shapes[row, r + 1] * ly + shapes[row, r + 2] * lz  # n = R l
-    ny = shapes[row, r + 3] * lx + shapes[row, r + 4] * ly + shapes[row, r + 5] * lz
-    nz = shapes[row, r + 6] * lx + shapes[row, r + 7] * ly + shapes[row, r + 8] * lz
+    nx = rot[row, 0, 0] * lx + rot[row, 0, 1] * ly + rot[row, 0, 2] * lz  # n = R l
+    ny = rot[row, 1, 0] * lx + rot[row, 1, 1] * ly + rot[row, 1, 2] * lz
+    nz = rot[row, 2, 0] * lx + rot[row, 2, 1] * ly + rot[row, 2, 2] * lz
     if exact and d < 0.0 and nx * n0x + ny * n0y + nz * n0z < 0.0:
         exact = False
     if not exact:
@@ -157,50 +175,64 @@ def shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, offset, radius):
 
 @_inline
 def _to_local(shapes, row, px, py, pz):
-    """Rᵀ (p − pos): a world point in the geom's frame."""
-    r = SH_ROT
-    dx, dy, dz = px - shapes[row, SH_POS], py - shapes[row, SH_POS + 1], pz - shapes[row, SH_POS + 2]
-    return (shapes[row, r] * dx + shapes[row, r + 3] * dy + shapes[row, r + 6] * dz,
-            shapes[row, r + 1] * dx + shapes[row, r + 4] * dy + shapes[row, r + 7] * dz,
-            shapes[row, r + 2] * dx + shapes[row, r + 5] * dy + shapes[row, r + 8] * dz)
+    """Rᵀ (p − pos): a world point in the frame of ``shapes``' row ``row``."""
+    pos, rot = shapes.pos, shapes.rot
+    dx, dy, dz = px - pos[row, 0], py - pos[row, 1], pz - pos[row, 2]
+    return (rot[row, 0, 0] * dx + rot[row, 1, 0] * dy + rot[row, 2, 0] * dz,
+            rot[row, 0, 1] * dx + rot[row, 1, 1] * dy + rot[row, 2, 1] * dz,
+            rot[row, 0, 2] * dx + rot[row, 1, 2] * dy + rot[row, 2, 2] * dz)
 
 
 @_inline
 def _to_world(shapes, row, qx, qy, qz):
-    """pos + R q: a point of the geom's frame in the world."""
-    r = SH_ROT
-    return (shapes[row, SH_POS] + shapes[row, r] * qx + shapes[row, r + 1] * qy + shapes[row, r + 2] * qz,
-            shapes[row, SH_POS + 1] + shapes[row, r + 3] * qx + shapes[row, r + 4] * qy + shapes[row, r + 5] * qz,
-            shapes[row, SH_POS + 2] + shapes[row, r + 6] * qx + shapes[row, r + 7] * qy + shapes[row, r + 8] * qz)
+    """pos + R q: a point of the frame of ``shapes``' row ``row`` in the world."""
+    pos, rot = shapes.pos, shapes.rot
+    return (pos[row, 0] + rot[row, 0, 0] * qx + rot[row, 0, 1] * qy + rot[row, 0, 2] * qz,
+            pos[row, 1] + rot[row, 1, 0] * qx + rot[row, 1, 1] * qy + rot[row, 1, 2] * qz,
+            pos[row, 2] + rot[row, 2, 0] * qx + rot[row, 2, 1] * qy + rot[row, 2, 2] * qz)
 
 
 @_inline
-def _zero_sums(fric, p):
-    """Zero particle p's substep sums in ``fric`` (N, N_FR), keeping its obstacle column (the last)."""
-    for col in range(FR_OB):
-        fric[p, col] = 0.0
+def _zero_sums(fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, p):
+    """Zero particle p's substep sums (the state's ``fric_*`` but ``fric_ob``, its obstacle, which is kept)."""
+    fric_n[p] = 0.0
+    fric_mu[p] = 0.0
+    fric_slid[p] = False
+    for c in range(3):
+        fric_nsum[p, c] = 0.0
+        fric_impulse[p, c] = 0.0
+        fric_normal[p, c] = 0.0
+
+
+@_jit
+def reset_friction(S):
+    """Zero the substep's per-particle normal and friction sums (``fric_*``), keeping each particle's obstacle
+    ``fric_ob``. The step drivers leave this to :func:`update_anchors` (which zeroes the rows it used); a Python
+    caller of the sweeps calls it before each substep."""
+    for p in range(S.fric_n.shape[0]):
+        _zero_sums(S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum, S.fric_impulse, S.fric_normal, p)
 
 
 @_inline
-def reset_friction(fric):
-    """Zero the substep's per-particle normal and friction sums (``fric`` (N, N_FR), columns ``FR_*``), keeping
-    the obstacle column. The step drivers leave this to :func:`update_anchors` (which zeroes the rows it used);
-    a Python caller of the sweeps calls it before each substep."""
-    for p in range(fric.shape[0]):
-        _zero_sums(fric, p)
-
-
-@_inline
-def contact_sweep(x, w, react, fric, anchor_ob, seg, geo, lam, shapes, radius):
-    """Obstacle contacts: segment ``seg`` (C,), ``geo`` (C, 7) = [s, n₀ (3), offset, μ, obstacle row in
-    ``shapes`` (B, 16) or −1], multipliers ``lam`` (C,). Projects C ≥ 0 (module docstring) against the obstacle's
-    shape, and adds each particle's share of Δλₙ to ``fric`` (its normal sum, μ-weighted sum and normal vector, and
-    the obstacle). A held particle (w = 0) collects its share of ∇C Δλ in ``react``; a contact nearer a held
-    particle than its segment's middle is left to the pin."""
-    for c in range(seg.shape[0]):
+def contact_sweep(S):
+    """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
+    normal ``con_normal`` and ``con_offset``, ``con_mu``, obstacle row ``con_shape`` or −1, a static box's face
+    ``con_face``, multipliers ``con_lam``). Projects C ≥ 0 (module docstring) against the obstacle's shape, and adds each particle's share of
+    Δλₙ to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``, ``fric_normal``, the obstacle ``fric_ob``). A
+    held particle (w = 0) collects its share of ∇C Δλ in ``react``; a contact nearer a held particle than its
+    segment's middle is left to the pin."""
+    P = S.par[0]
+    radius = P.radius
+    x, w, react = S.x, S.w, S.react
+    fric_n, fric_mu, fric_nsum, fric_normal, fric_ob, anchor_ob = (S.fric_n, S.fric_mu, S.fric_nsum, S.fric_normal,
+                                                                   S.fric_ob, S.anchor_ob)
+    seg, con_s, con_normal, con_offset, con_mu, con_shape, con_face, lam = (
+        S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam)
+    shapes = shapes_of(S)
+    for c in range(P.n_con):
         i = seg[c]
         j = i + 1
-        s = geo[c, 0]
+        s = con_s[c]
         a, b = 1.0 - s, s
         wi, wj = w[i], w[j]
         wsum = a * a * wi + b * b * wj
@@ -219,18 +251,18 @@ def contact_sweep(x, w, react, fric, anchor_ob, seg, geo, lam, shapes, radius):
             px = a * x[i, 0] + b * x[j, 0]
             py = a * x[i, 1] + b * x[j, 1]
             pz = a * x[i, 2] + b * x[j, 2]
-        k = int(geo[c, 6])
+        k = con_shape[c]
         if k >= 0:
-            cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4],
-                                              radius)
+            cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
+                                              con_normal[c, 2], con_offset[c], radius, con_face[c])
         else:
-            nx, ny, nz = geo[c, 1], geo[c, 2], geo[c, 3]
-            cval = nx * px + ny * py + nz * pz - geo[c, 4]
+            nx, ny, nz = con_normal[c, 0], con_normal[c, 1], con_normal[c, 2]
+            cval = nx * px + ny * py + nz * pz - con_offset[c]
         if cval >= 0.0:
             continue
         dlam = -cval * inv_wsum
         lam[c] += dlam
-        mu = geo[c, 5]
+        mu = con_mu[c]
         for p, f, wp in ((i, a, wi), (j, b, wj)):
             if f == 0.0:  # the contact acts at the other particle: none of its load, μ or obstacle here
                 continue
@@ -244,44 +276,38 @@ def contact_sweep(x, w, react, fric, anchor_ob, seg, geo, lam, shapes, radius):
                 react[p, 0] += g * nx
                 react[p, 1] += g * ny
                 react[p, 2] += g * nz
-            if fric[p, FR_FN] == 0.0 or k == anchor_ob[p]:
+            if fric_n[p] == 0.0 or k == anchor_ob[p]:
                 # the particle's friction obstacle: the one it is anchored on while it presses on it, else the
                 # first it presses in the substep (a particle between two obstacles keeps one anchor)
-                fric[p, FR_OB] = k
-            fric[p, FR_FN] += g
-            fric[p, FR_MU] = max(fric[p, FR_MU], mu)
+                fric_ob[p] = k
+            fric_n[p] += g
+            fric_mu[p] = max(fric_mu[p], mu)
             # a normal against the particle's summed one (a cable squeezed between two faces) counts turned round:
             # the particle's cone is then Σ of both sides' normal impulses, not their cancelling vector sum
-            turn = -1.0 if fric[p, FR_GN] * nx + fric[p, FR_GN + 1] * ny + fric[p, FR_GN + 2] * nz < 0.0 else 1.0
-            fric[p, FR_NX] += turn * g * nx
-            fric[p, FR_NX + 1] += turn * g * ny
-            fric[p, FR_NX + 2] += turn * g * nz
-            fric[p, FR_GN] += turn * f * nx
-            fric[p, FR_GN + 1] += turn * f * ny
-            fric[p, FR_GN + 2] += turn * f * nz
+            turn = -1.0 if fric_normal[p, 0] * nx + fric_normal[p, 1] * ny + fric_normal[p, 2] * nz < 0.0 else 1.0
+            fric_nsum[p, 0] += turn * g * nx
+            fric_nsum[p, 1] += turn * g * ny
+            fric_nsum[p, 2] += turn * g * nz
+            fric_normal[p, 0] += turn * f * nx
+            fric_normal[p, 1] += turn * f * ny
+            fric_normal[p, 2] += turn * f * nz
 
 
 @_inline
-def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
-    """Coulomb friction of every pressed particle against its anchor (module docstring): ``fric`` (N, N_FR) from
-    :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,) (−1: none; a
-    new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
-
-    The cone is the particle's: its normal n̂ is the mean of its pressing contacts' normals, weighted by the
-    particle's share of each (the bisector of two chords on a curve), its normal impulse λₙ = n̂·Σ Δλ_c n_c, and
-    the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
-    (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
-    |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
-    grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
-    outside it)."""
-    for p in range(x.shape[0]):
-        if fric[p, FR_FN] <= 0.0 or w[p] == 0.0:
+def _friction_cones(S):
+    """The first pass of :func:`friction_sweep`: each pressed free particle's cone from its sums, its unit normal
+    n̂ (``fric_unit``), the sums' tangential part t_c (``fric_push``) and the cone's radius μ λₙ (``fric_cone``; −1
+    for a particle without friction this substep). The particles' cones do not depend on one another, so this pass
+    runs without the second's chain through the positions."""
+    w, fric_n, fric_mu, fric_nsum, fric_normal, fric_ob = (S.w, S.fric_n, S.fric_mu, S.fric_nsum, S.fric_normal,
+                                                           S.fric_ob)
+    unit, push, cone = S.fric_unit, S.fric_push, S.fric_cone
+    for p in range(w.shape[0]):
+        cone[p] = -1.0
+        if fric_n[p] <= 0.0 or w[p] == 0.0 or fric_ob[p] < 0:
             continue
-        k = int(fric[p, FR_OB])
-        if k < 0:
-            continue
-        sx, sy, sz = fric[p, FR_NX], fric[p, FR_NX + 1], fric[p, FR_NX + 2]  # Σ Δλ_c n_c
-        nx, ny, nz = fric[p, FR_GN], fric[p, FR_GN + 1], fric[p, FR_GN + 2]
+        sx, sy, sz = fric_nsum[p, 0], fric_nsum[p, 1], fric_nsum[p, 2]  # Σ Δλ_c n_c
+        nx, ny, nz = fric_normal[p, 0], fric_normal[p, 1], fric_normal[p, 2]
         norm = math.sqrt(nx * nx + ny * ny + nz * nz)
         if norm <= 0.0:
             continue
@@ -290,8 +316,36 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
         lam_n = sx * nx + sy * ny + sz * nz
         if lam_n <= 0.0:
             continue
-        tcx, tcy, tcz = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
-        cone = fric[p, FR_MU] * lam_n
+        unit[p, 0], unit[p, 1], unit[p, 2] = nx, ny, nz
+        push[p, 0], push[p, 1], push[p, 2] = sx - lam_n * nx, sy - lam_n * ny, sz - lam_n * nz
+        cone[p] = fric_mu[p] * lam_n
+
+
+@_inline
+def friction_sweep(S):
+    """Coulomb friction of every pressed particle against its anchor (module docstring): the friction sums
+    (``fric_*``) from :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,)
+    (−1: none; a new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
+
+    The cone is the particle's (:func:`_friction_cones`): its normal n̂ is the mean of its pressing contacts'
+    normals, weighted by the particle's share of each (the bisector of two chords on a curve), its normal impulse
+    λₙ = n̂·Σ Δλ_c n_c, and the tangential part of the contact impulses, t_c = Σ Δλ_c n_c − λₙ n̂
+    (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
+    |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
+    grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
+    outside it)."""
+    _friction_cones(S)
+    x, x0, w, anchor, anchor_ob = S.x, S.x0, S.w, S.anchor, S.anchor_ob
+    fric_slid, fric_impulse, fric_ob = S.fric_slid, S.fric_impulse, S.fric_ob
+    unit, push, cones = S.fric_unit, S.fric_push, S.fric_cone
+    shapes = shapes_of(S)
+    for p in range(x.shape[0]):
+        cone = cones[p]
+        if cone < 0.0:
+            continue
+        k = fric_ob[p]
+        nx, ny, nz = unit[p, 0], unit[p, 1], unit[p, 2]
+        tcx, tcy, tcz = push[p, 0], push[p, 1], push[p, 2]
         if anchor_ob[p] != k:
             anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
             anchor_ob[p] = k
@@ -299,7 +353,7 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
         dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
         dn = dx * nx + dy * ny + dz * nz
         inv_w = 1.0 / w[p]
-        fx0, fy0, fz0 = fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2]
+        fx0, fy0, fz0 = fric_impulse[p, 0], fric_impulse[p, 1], fric_impulse[p, 2]
         ex = -(dx - dn * nx) * inv_w  # the friction impulse that puts the particle back over its anchor
         ey = -(dy - dn * ny) * inv_w
         ez = -(dz - dn * nz) * inv_w
@@ -315,10 +369,11 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
         else:
             alpha = 0.0 if qc > 0.0 else (-qb + math.sqrt(max(qb * qb - qa * qc, 0.0))) / qa
             if alpha < 1.0:  # outside the cone: kinetic friction on its rim, and the particle slides
-                fric[p, FR_SLID] = 1.0
+                fric_slid[p] = True
             else:
                 alpha = 1.0
-        fric[p, FR_FT], fric[p, FR_FT + 1], fric[p, FR_FT + 2] = fx0 + alpha * ex, fy0 + alpha * ey, fz0 + alpha * ez
+        fric_impulse[p, 0], fric_impulse[p, 1], fric_impulse[p, 2] = (fx0 + alpha * ex, fy0 + alpha * ey,
+                                                                      fz0 + alpha * ez)
         g = w[p] * alpha
         x[p, 0] += g * ex
         x[p, 1] += g * ey
@@ -326,23 +381,29 @@ def friction_sweep(x, x0, w, fric, anchor, anchor_ob, shapes):
 
 
 @_inline
-def update_anchors(x, fric, anchor, anchor_ob, shapes):
+def update_anchors(S):
     """End of a substep: drop the anchors of particles that no longer press, move those of sliding particles to
     where they are now (in their obstacle's frame), and zero the substep's sums (:func:`reset_friction`) of the
     particles that had contacts."""
+    x, anchor, anchor_ob = S.x, S.anchor, S.anchor_ob
+    fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal = (S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum,
+                                                                        S.fric_impulse, S.fric_normal)
+    shapes = shapes_of(S)
     for p in range(x.shape[0]):
-        if fric[p, FR_FN] <= 0.0:
+        if fric_n[p] <= 0.0:
             anchor_ob[p] = -1
             continue
-        if anchor_ob[p] >= 0 and fric[p, FR_SLID] > 0.0:
+        if anchor_ob[p] >= 0 and fric_slid[p]:
             anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, anchor_ob[p], x[p, 0], x[p, 1], x[p, 2])
-        _zero_sums(fric, p)
+        _zero_sums(fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, p)
 
 
 @_inline
-def _move_pair(x, w, react, i, j, a0, a1, b0, b1, g, vx, vy, vz):
-    """Δxₚ = wₚ fₚ g v for the four particles of a segment pair, (i, i+1, j, j+1) with weights (a0, a1, b0, b1);
-    a held particle collects fₚ g v in ``react``."""
+def _move_pair(x, w, react, i, j, weights, g, v):
+    """Δxₚ = wₚ fₚ g v for the four particles of a segment pair, (i, i+1, j, j+1) with ``weights`` (a0, a1, b0, b1),
+    ``v`` a vector (3 floats); a held particle collects fₚ g v in ``react``."""
+    a0, a1, b0, b1 = weights
+    vx, vy, vz = v
     for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
         if w[p] > 0.0:
             x[p, 0] += w[p] * f * g * vx
@@ -355,18 +416,24 @@ def _move_pair(x, w, react, i, j, a0, a1, b0, b1, g, vx, vy, vz):
 
 
 @_jit
-def self_contact_sweep(x, x0, w, react, pair, sgeo, gap, mu, lam):
-    """Self contacts of non-adjacent segments (i, i+1) and (j, j+1) at fractions s, t, linearised once per step
-    with the unit normal n from segment j to segment i: C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four
-    particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb
-    friction μ on the relative tangential slip of the two axis points since the substep began ([M20]'s static
-    friction, capped at μ λₙ: kinetic beyond). ``lam`` (S, 2) = [λₙ, λ_t]."""
-    for c in range(pair.shape[0]):
+def self_contact_sweep(S):
+    """The state's self contacts (``par.n_self`` of them) of non-adjacent segments (i, i+1) and (j, j+1)
+    (``self_pair``) at fractions s, t (``self_st``), linearised once per step with the unit normal n from segment j
+    to segment i (``self_normal``): C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four particles moving with
+    Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb friction μ
+    (``par.mu_self``) on the relative tangential slip of the two axis points since the substep began ([M20]'s static
+    friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``, ``self_lam_t``."""
+    P = S.par[0]
+    gap, mu = 2.0 * P.radius, P.mu_self
+    x, x0, w, react = S.x, S.x0, S.w, S.react
+    pair, st, normal, lam_n, lam_t = S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t
+    for c in range(P.n_self):
         i = pair[c, 0]
         j = pair[c, 1]
-        s, t = sgeo[c, 0], sgeo[c, 1]
-        nx, ny, nz = sgeo[c, 2], sgeo[c, 3], sgeo[c, 4]
+        s, t = st[c, 0], st[c, 1]
+        nx, ny, nz = normal[c, 0], normal[c, 1], normal[c, 2]
         a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
+        weights = (a0, a1, b0, b1)
         wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
         if wsum == 0.0:
             continue
@@ -376,9 +443,9 @@ def self_contact_sweep(x, x0, w, react, pair, sgeo, gap, mu, lam):
         cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
         if cval < 0.0:
             dlam = -cval / wsum
-            lam[c, 0] += dlam
-            _move_pair(x, w, react, i, j, a0, a1, b0, b1, dlam, nx, ny, nz)
-        if mu <= 0.0 or lam[c, 0] <= 0.0:
+            lam_n[c] += dlam
+            _move_pair(x, w, react, i, j, weights, dlam, (nx, ny, nz))
+        if mu <= 0.0 or lam_n[c] <= 0.0:
             continue
         ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
         for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
@@ -388,75 +455,86 @@ def self_contact_sweep(x, x0, w, react, pair, sgeo, gap, mu, lam):
         un = ux * nx + uy * ny + uz * nz
         tx, ty, tz = ux - un * nx, uy - un * ny, uz - un * nz
         slip = math.sqrt(tx * tx + ty * ty + tz * tz)
-        budget = mu * lam[c, 0] - lam[c, 1]
+        budget = mu * lam_n[c] - lam_t[c]
         if slip <= _TINY_SLIP or budget <= 0.0:
             continue
         dlam_t = min(slip / wsum, budget)
-        lam[c, 1] += dlam_t
-        _move_pair(x, w, react, i, j, a0, a1, b0, b1, -dlam_t / slip, tx, ty, tz)
+        lam_t[c] += dlam_t
+        _move_pair(x, w, react, i, j, weights, -dlam_t / slip, (tx, ty, tz))
 
 
 @_inline
-def _add_impulse(out, k, px, py, pz, jx, jy, jz):
-    """Add the impulse j (kg·m) at the point p to obstacle row ``k`` of ``out`` (B, 6): [Σ j, Σ p × j]."""
-    out[k, IM_F] += jx
-    out[k, IM_F + 1] += jy
-    out[k, IM_F + 2] += jz
-    out[k, IM_M] += py * jz - pz * jy
-    out[k, IM_M + 1] += pz * jx - px * jz
-    out[k, IM_M + 2] += px * jy - py * jx
+def _add_impulse(force, moment, k, px, py, pz, jx, jy, jz):
+    """Add the impulse j (kg·m) at the point p to obstacle row ``k`` of ``force`` (B, 3) (Σ j) and ``moment``
+    (B, 3) (Σ p × j)."""
+    force[k, 0] += jx
+    force[k, 1] += jy
+    force[k, 2] += jz
+    moment[k, 0] += py * jz - pz * jy
+    moment[k, 1] += pz * jx - px * jz
+    moment[k, 2] += px * jy - py * jx
 
 
 @_jit
-def collect_impulses(x, w, fric, seg, geo, lam, shapes, radius, out):
+def collect_impulses(S):
     """End of a substep, before :func:`update_anchors`: add each obstacle's contact impulses on the cable in this
-    substep to its row of ``out`` (B, 6) = [Σ j, Σ point × j] (kg·m and kg·m², about the world origin; the
-    caller zeroes it). Normal: contact c's Σ Δλₙ (``lam``) along its normal n_c at the axis point now (the cable
-    side's ∇C Δλ summed over both particles, held ones included). Friction: each free particle's friction impulse
-    f (``fric``'s FR_FT) is shared among the contacts that pressed it in proportion to their normal impulses on
-    it, g_c / Σ g (FR_FN), each share at the particle's contact point x − r n_c: a cable squeezed between a table
-    and a weight drags both by the friction of each side. Σ j / h is the momentum the obstacle gave the cable
-    (Σ m Δx for free particles), −Σ j / h² the force on the obstacle. Self contacts are internal and give
+    substep to its row of ``impulse_force`` (Σ j, kg·m) and ``impulse_moment`` (Σ point × j, kg·m², about the world
+    origin; the caller zeroes them). Normal: contact c's Σ Δλₙ (``con_lam``) along its normal n_c at the axis point
+    now (the cable side's ∇C Δλ summed over both particles, held ones included). Friction: each free particle's
+    friction impulse f (``fric_impulse``) is shared among the contacts that pressed it in proportion to their normal
+    impulses on it, g_c / Σ g (``fric_n``), each share at the particle's contact point x − r n_c: a cable squeezed
+    between a table and a weight drags both by the friction of each side. Σ j / h is the momentum the obstacle gave
+    the cable (Σ m Δx for free particles), −Σ j / h² the force on the obstacle. Self contacts are internal and give
     nothing."""
-    for c in range(seg.shape[0]):
-        k = int(geo[c, 6])
+    P = S.par[0]
+    radius = P.radius
+    x, w, fric_n, fric_impulse = S.x, S.w, S.fric_n, S.fric_impulse
+    seg, con_s, con_normal, con_offset, con_shape, lam = (S.con_seg, S.con_s, S.con_normal, S.con_offset,
+                                                          S.con_shape, S.con_lam)
+    force, moment = S.impulse_force, S.impulse_moment
+    shapes = shapes_of(S)
+    for c in range(P.n_con):
+        k = con_shape[c]
         if k < 0 or lam[c] == 0.0:
             continue
         i = seg[c]
-        s = geo[c, 0]
+        s = con_s[c]
         px = (1.0 - s) * x[i, 0] + s * x[i + 1, 0]
         py = (1.0 - s) * x[i, 1] + s * x[i + 1, 1]
         pz = (1.0 - s) * x[i, 2] + s * x[i + 1, 2]
-        _, nx, ny, nz = shape_distance(px, py, pz, shapes, k, geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4], radius)
+        _, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1], con_normal[c, 2],
+                                       con_offset[c], radius)
         g = lam[c]
-        _add_impulse(out, k, px, py, pz, g * nx, g * ny, g * nz)
+        _add_impulse(force, moment, k, px, py, pz, g * nx, g * ny, g * nz)
         for p, f in ((i, 1.0 - s), (i + 1, s)):
-            if f == 0.0 or w[p] == 0.0 or fric[p, FR_FN] <= 0.0:
+            if f == 0.0 or w[p] == 0.0 or fric_n[p] <= 0.0:
                 continue
-            share = f * g / fric[p, FR_FN]
-            jx, jy, jz = share * fric[p, FR_FT], share * fric[p, FR_FT + 1], share * fric[p, FR_FT + 2]
+            share = f * g / fric_n[p]
+            jx, jy, jz = share * fric_impulse[p, 0], share * fric_impulse[p, 1], share * fric_impulse[p, 2]
             if jx != 0.0 or jy != 0.0 or jz != 0.0:
-                _add_impulse(out, k, x[p, 0] - radius * nx, x[p, 1] - radius * ny, x[p, 2] - radius * nz,
+                _add_impulse(force, moment, k, x[p, 0] - radius * nx, x[p, 1] - radius * ny, x[p, 2] - radius * nz,
                              jx, jy, jz)
 
 
 @_jit
-def body_wrenches(impulse, rows, bodies, xipos, scale, wrench, xfrc):
-    """The bodies' side of :func:`collect_impulses`: ``wrench`` (nbody, 6) zeroed, then for obstacle row
-    ``rows[r]`` on body ``bodies[r]`` the force F = ``scale`` · Σ j (scale = −1/h²) and its moment about the body's
-    centre of mass ``xipos[b]``, scale · Σ p × j − xipos × F, added to ``wrench`` and to ``xfrc`` (MuJoCo's
-    ``xfrc_applied``)."""
+def body_wrenches(S, scale):
+    """The bodies' side of :func:`collect_impulses`: ``contact_wrench`` (nbody, 6) zeroed, then for obstacle row
+    ``wrench_rows[r]`` on body ``wrench_bodies[r]`` the force F = ``scale`` · Σ j (scale = −1/h²) and its moment
+    about the body's centre of mass ``xipos[b]``, scale · Σ p × j − xipos × F, added to ``contact_wrench`` and to
+    ``xfrc_applied`` (MuJoCo's)."""
+    force, moment, rows, bodies, xipos = S.impulse_force, S.impulse_moment, S.wrench_rows, S.wrench_bodies, S.xipos
+    wrench, xfrc = S.contact_wrench, S.xfrc_applied
     wrench[:] = 0.0
     for r in range(rows.shape[0]):
         k, b = rows[r], bodies[r]
-        fx, fy, fz = scale * impulse[k, IM_F], scale * impulse[k, IM_F + 1], scale * impulse[k, IM_F + 2]
+        fx, fy, fz = scale * force[k, 0], scale * force[k, 1], scale * force[k, 2]
         cx, cy, cz = xipos[b, 0], xipos[b, 1], xipos[b, 2]
         wrench[b, 0] += fx
         wrench[b, 1] += fy
         wrench[b, 2] += fz
-        wrench[b, 3] += scale * impulse[k, IM_M] - (cy * fz - cz * fy)
-        wrench[b, 4] += scale * impulse[k, IM_M + 1] - (cz * fx - cx * fz)
-        wrench[b, 5] += scale * impulse[k, IM_M + 2] - (cx * fy - cy * fx)
+        wrench[b, 3] += scale * moment[k, 0] - (cy * fz - cz * fy)
+        wrench[b, 4] += scale * moment[k, 1] - (cz * fx - cx * fz)
+        wrench[b, 5] += scale * moment[k, 2] - (cx * fy - cy * fx)
     for r in range(rows.shape[0]):
         b = bodies[r]
         first = True

@@ -5,7 +5,7 @@ margin that covers the distance the cable can travel in one step (in the compile
 API: :func:`mjcable.solvers.query_kernels.query_obstacles`; through the bindings where that is unavailable:
 :meth:`ObstacleContacts.query`); each contact becomes a constraint on the
 segment's axis point at fraction s, measured against the obstacle's shape (type, size and pose, one row of
-``Contacts.shapes`` per obstacle) in every substep and iteration, with Coulomb friction against anchors that
+the state's ``shape_*`` per obstacle) in every substep and iteration, with Coulomb friction against anchors that
 persist across steps (:mod:`mjcable.solvers.contact_kernels`). While the cable's bounding box touches no
 obstacle's, the query is skipped.
 
@@ -63,10 +63,13 @@ class ObstacleContacts:
         body = mj_model.geom_bodyid[g]
         #: (M,) the geoms of obstacles on bodies that move (their shapes' poses are refreshed by every query)
         self.moving_geoms = g[(mj_model.body_weldid[body] != 0) | (mj_model.body_mocapid[body] >= 0)]
-        #: (B, layout.N_SH): each obstacle's MuJoCo type, size, world position and rotation
-        self.shapes = np.zeros((len(g), layout.N_SH))
-        self.shapes[:, layout.SH_TYPE] = mj_model.geom_type[g]
-        self.shapes[:, layout.SH_SIZE:layout.SH_SIZE + 3] = mj_model.geom_size[g]
+        #: (B,), (B, 3), (B, 3), (B, 3, 3), (B,): each obstacle's MuJoCo type, size (m), world position (m) and
+        #: rotation, and whether it moves
+        self.shape_type = mj_model.geom_type[g].astype(np.int64)
+        self.shape_size = np.array(mj_model.geom_size[g], dtype=np.float64)
+        self.shape_pos = np.zeros((len(g), 3))
+        self.shape_rot = np.zeros((len(g), 3, 3))
+        self.shape_moves = np.isin(g, self.moving_geoms)
         self._refresh_shapes(g)
         # Static obstacles: world bounding boxes, planes as half-spaces (normal, point); with a moving obstacle the
         # bounds cover all space (every step queries).
@@ -93,7 +96,8 @@ class ObstacleContacts:
         m, d = self.mj_model, self.mj_data
         g = self.moving_geoms
         moving = np.stack([g, self.shape_of_geom[g]], axis=1).astype(np.int64).reshape(-1, 2)
-        return dict(shapes=self.shapes, box_lo=self._box_lo, box_hi=self._box_hi, plane_n=self._plane_n,
+        return dict(shape_type=self.shape_type, shape_size=self.shape_size, shape_pos=self.shape_pos,
+                    shape_rot=self.shape_rot, shape_moves=self.shape_moves, box_lo=self._box_lo, box_hi=self._box_hi, plane_n=self._plane_n,
                     plane_p=self._plane_p, pair_margin=m.pair_margin, segment_of_geom=self.segment_of_geom,
                     shape_of_geom=self.shape_of_geom, geom_friction=self.friction, moving=moving,
                     geom_xpos=d.geom_xpos, geom_xmat=d.geom_xmat)
@@ -112,8 +116,8 @@ class ObstacleContacts:
     def _refresh_shapes(self, geoms: np.ndarray) -> None:
         d = self.mj_data
         rows = self.shape_of_geom[geoms]
-        self.shapes[rows, layout.SH_POS:layout.SH_POS + 3] = d.geom_xpos[geoms]
-        self.shapes[rows, layout.SH_ROT:layout.SH_ROT + 9] = d.geom_xmat[geoms]
+        self.shape_pos[rows] = d.geom_xpos[geoms]
+        self.shape_rot[rows] = d.geom_xmat[geoms].reshape(-1, 3, 3)
 
     def query(self, S, x: np.ndarray, margin: float) -> int:
         """The query of :func:`~mjcable.solvers.query_kernels.query_obstacles` through the bindings
@@ -127,7 +131,5 @@ class ObstacleContacts:
         query_kernels.reserve_contacts(S, ncon)
         if not ncon:
             return 0
-        seg, geo = layout.contact_buffers(S)[:2]
         con = d.contact
-        return query_kernels.contacts_from_mujoco(con.geom, con.dist, con.pos, con.frame, self.segment_of_geom,
-                                                  self.shape_of_geom, self.friction, x, self.radius, seg, geo)
+        return query_kernels.contacts_from_mujoco(S, con.geom, con.dist, con.pos, con.frame)

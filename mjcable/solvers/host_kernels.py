@@ -223,8 +223,9 @@ def host_before(S, sub, n):
     for i in range(target.shape[0]):
         for c in range(3):
             pin_to[i, c] = target[i, c]
-    if S.impulse.shape[0]:
-        S.impulse[:] = 0.0
+    if S.impulse_force.shape[0]:
+        S.impulse_force[:] = 0.0
+        S.impulse_moment[:] = 0.0
 
 
 @_jit
@@ -240,7 +241,7 @@ def host_after(S):
     site_xpos, xfrc_applied, p0, arm, free, free_w, f, applied = (S.site_xpos, S.xfrc_applied, S.p0, S.arm, S.free,
                                                                   S.free_w, S.force, S.applied)
     npin = link_pin.shape[0]
-    two_way = S.impulse.shape[0] > 0
+    two_way = S.impulse_force.shape[0] > 0
     gravity = (P.gx, P.gy, P.gz)
     if npin:
         for j in range(npin):
@@ -268,8 +269,7 @@ def host_after(S):
             for c in range(6):
                 xfrc_applied[b, c] += applied[j, c]
     if two_way:
-        contact_kernels.body_wrenches(S.impulse, S.wrench_rows, S.wrench_bodies, S.xipos, -1.0 / (h * h),
-                                      S.contact_wrench, xfrc_applied)
+        contact_kernels.body_wrenches(S, -1.0 / (h * h))
     _mj_step(P)
     if npin:
         for j in range(npin):

@@ -137,8 +137,9 @@ def begin_substep(S, sub, n_sub):
     S.lam_d[:] = 0.0
     S.lam_b[:] = 0.0
     S.lam_c[:] = 0.0
-    S.lam[:P.n_con] = 0.0
-    S.slam[:P.n_self] = 0.0
+    S.con_lam[:P.n_con] = 0.0
+    S.self_lam_n[:P.n_self] = 0.0
+    S.self_lam_t[:P.n_self] = 0.0
 
 
 @_jit
@@ -202,12 +203,10 @@ def iterate(S):
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
     n_con, n_self = P.n_con, P.n_self
     if n_con:
-        contact_sweep(x, w, S.react, S.fric, S.anchor_ob, S.seg[:n_con], S.geo[:n_con], S.lam[:n_con], S.shapes,
-                      P.radius)
-        friction_sweep(x, S.x0, w, S.fric, S.anchor, S.anchor_ob, S.shapes)
+        contact_sweep(S)
+        friction_sweep(S)
     if n_self:
-        self_contact_sweep(x, S.x0, w, S.react, S.pair[:n_self], S.sgeo[:n_self], 2.0 * P.radius, P.mu_self,
-                           S.slam[:n_self])
+        self_contact_sweep(S)
 
 
 @_inline
@@ -217,11 +216,10 @@ def end_substep(S):
     (:func:`_pin_forces`). Returns the number released."""
     P = S.par[0]
     x = S.x
-    if S.shapes.shape[0]:
-        n = P.n_con
-        if S.impulse.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
-            collect_impulses(x, S.w, S.fric, S.seg[:n], S.geo[:n], S.lam[:n], S.shapes, P.radius, S.impulse)
-        update_anchors(x, S.fric, S.anchor, S.anchor_ob, S.shapes)
+    if S.shape_type.shape[0]:
+        if S.impulse_force.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
+            collect_impulses(S)
+        update_anchors(S)
     _velocities(x, S.v, S.x0, 1.0 / P.h)
     return _pin_forces(S)
 
@@ -281,7 +279,7 @@ def is_plain(S):
     and no contacts."""
     P = S.par[0]
     return (P.order == ORDER_GAUSS_SEIDEL and P.bending == BEND_NONE and S.clamp_pq.shape[0] == 0
-            and S.shapes.shape[0] == 0 and P.n_con == 0 and P.n_self == 0)
+            and S.shape_type.shape[0] == 0 and P.n_con == 0 and P.n_self == 0)
 
 
 @_inline

@@ -16,6 +16,8 @@ kernel file for the cache (its name matches ``*kernels*``: a change here recompi
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba
 import numpy as np
 from numba import types
@@ -23,7 +25,8 @@ from numba.experimental import structref
 
 from mjcable.solvers._kernel_cache import jit as _jit
 
-__all__ = ["SolverState", "SolverStateType", "STATE_TYPE", "PARAMS", "FIELDS", "assemble", "contact_buffers"]
+__all__ = ["SolverState", "SolverStateType", "STATE_TYPE", "PARAMS", "FIELDS", "assemble", "contact_buffers",
+           "self_contact_buffers", "Shapes"]
 
 ORDER_GAUSS_SEIDEL, ORDER_JACOBI, ORDER_DIRECT = 0, 1, 2
 BEND_NONE, BEND_CURVATURE, BEND_DISTANCE = 0, 1, 2
@@ -41,15 +44,11 @@ CHECK_OK, CHECK_NON_FINITE, CHECK_DISTANCE, CHECK_SPEED = 0, 1, 2, 3
 PHASE_BEGIN, PHASE_ITERATE, PHASE_END, PHASE_HOST_BEFORE, PHASE_HOST_AFTER = 0, 1, 2, 3, 4
 # MuJoCo's geom type codes (mujoco.mjtGeom) that the contact kernels measure exactly.
 GEOM_PLANE, GEOM_SPHERE, GEOM_CAPSULE, GEOM_ELLIPSOID, GEOM_CYLINDER, GEOM_BOX = 0, 2, 3, 4, 5, 6
-# Columns of SolverState.shapes (B, 16), one row per obstacle geom: type, size (3), pos (3), row-major rotation (9).
-SH_TYPE, SH_SIZE, SH_POS, SH_ROT, N_SH = 0, 1, 4, 7, 16
-# Columns of SolverState.fric (N, 13), per particle and substep: its share of the contacts' Σ Δλₙ, their largest μ,
-# slid (0/1), Σ Δλₙ n (3), its friction impulse (3), Σ share · n over its pressing contacts (3), the obstacle
-# row of its last contact (kept across substeps).
-FR_FN, FR_MU, FR_SLID, FR_NX, FR_FT, FR_GN, FR_OB, N_FR = 0, 1, 2, 3, 6, 9, 12, 13
-# Columns of SolverState.impulse (B, 6), summed over a substep by contact_kernels.collect_impulses: Σ Δλ ∇C (kg·m;
-# ÷ h is the momentum the contacts gave the cable, ÷ h² the force), and its moment Σ point × impulse about the origin.
-IM_F, IM_M = 0, 3
+# A box's faces (SolverState.con_face): +x, +y, +z, −x, −y, −z in the box's frame (axis = face % 3).
+BOX_FACE_NONE, BOX_FACE_NEGATIVE = -1, 3
+#: The obstacle shapes as one argument of the shape kernels (:func:`mjcable.solvers.contact_kernels.shape_distance`):
+#: the state's ``shape_type`` (B,), ``shape_size`` (B, 3) m, ``shape_pos`` (B, 3) m, ``shape_rot`` (B, 3, 3).
+Shapes = namedtuple("Shapes", ("type", "size", "pos", "rot"))
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
 _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
@@ -122,13 +121,36 @@ FIELDS = (
     ("row_kind", _I1, "(R,) ROW_*"), ("row_idx", _I1, "(R,) constraint index"), ("row_p", _I2, "(R, 3) particles"),
     ("prow", _I2, "(N, W) rows touching a particle"), ("pslot", _I2, "(N, W) the particle's slot in them"),
     ("band", _F2, "(R, bw + 1) lower band"), ("grad", _F3, "(R, 3, 3) row gradients"), ("rhs", _F1, "(R,)"),
-    # friction and contacts
-    ("fric", _F2, "(N, N_FR) per-particle friction sums"), ("anchor", _F2, "(N, 3) friction anchors"),
-    ("anchor_ob", _I1, "(N,) the anchors' obstacle rows"),
-    ("seg", _I1, "(C,) contact segments"), ("geo", _F2, "(C, 7) [s, n₀, offset, μ, shape row]"),
-    ("lam", _F1, "(C,) contact multipliers"), ("pair", _I2, "(S, 2) self-contact segments"),
-    ("sgeo", _F2, "(S, 5) [s, t, n]"), ("slam", _F2, "(S, 2) [λₙ, λ_t]"),
-    ("shapes", _F2, "(B, N_SH) obstacle shapes"), ("impulse", _F2, "(B, 6) or (0, 6) contact impulses per substep"),
+    # friction, per particle and substep (sums over its contacts and the substep's iterations; Δλ in kg·m)
+    ("fric_n", _F1, "(N,) kg·m the particle's share of its contacts' Σ Δλₙ"),
+    ("fric_mu", _F1, "(N,) the largest μ of its contacts"), ("fric_slid", _B1, "(N,) it slid (reached the cone's rim)"),
+    ("fric_nsum", _F2, "(N, 3) kg·m Σ share · Δλₙ n over its contacts"),
+    ("fric_impulse", _F2, "(N, 3) kg·m its friction impulse"),
+    ("fric_normal", _F2, "(N, 3) Σ share · n over its pressing contacts (its normal, unnormalised)"),
+    ("fric_ob", _I1, "(N,) obstacle row of its friction contact (kept across substeps)"),
+    # the particle's friction cone, from the sums (contact_kernels.friction_sweep's first pass)
+    ("fric_unit", _F2, "(N, 3) its unit normal n̂"), ("fric_push", _F2, "(N, 3) kg·m the sums' tangential part"),
+    ("fric_cone", _F1, "(N,) kg·m the cone's radius μ λₙ (−1: no friction this substep)"),
+    ("anchor", _F2, "(N, 3) m friction anchors in their obstacle's frame"),
+    ("anchor_ob", _I1, "(N,) the anchors' obstacle rows (−1: none)"),
+    # obstacle contacts (C: the buffers' capacity, par.n_con in use; grown together by query_kernels.reserve_contacts)
+    ("con_seg", _I1, "(C,) the contact's segment"), ("con_s", _F1, "(C,) fraction s of its axis point on the segment"),
+    ("con_normal", _F2, "(C, 3) the detection's unit normal n₀, from the obstacle to the cable"),
+    ("con_offset", _F1, "(C,) m half-space offset: n₀·p ≥ offset (n₀·q + radius, q on the obstacle)"),
+    ("con_mu", _F1, "(C,) Coulomb μ"), ("con_shape", _I1, "(C,) the obstacle's shape row (−1: half-space only)"),
+    ("con_face", _I1, "(C,) the face n₀ picks on a static box (BOX_FACE_*; −1: none, or found in every sweep)"),
+    ("con_lam", _F1, "(C,) kg·m normal multipliers"),
+    # self contacts (S: capacity, par.n_self in use; grown together by query_kernels.self_contacts)
+    ("self_pair", _I2, "(S, 2) segments i, j"), ("self_st", _F2, "(S, 2) fractions s, t of the closest points"),
+    ("self_normal", _F2, "(S, 3) unit normal from segment j to segment i"),
+    ("self_lam_n", _F1, "(S,) kg·m normal multipliers"), ("self_lam_t", _F1, "(S,) kg·m friction multipliers"),
+    # obstacle shapes (B rows; contacts and anchors name their row)
+    ("shape_type", _I1, "(B,) MuJoCo geom type (mjtGeom)"), ("shape_size", _F2, "(B, 3) m geom size"),
+    ("shape_pos", _F2, "(B, 3) m world position"), ("shape_rot", _F3, "(B, 3, 3) world rotation (geom to world)"),
+    ("shape_moves", _B1, "(B,) on a moving body (its pose is refreshed)"),
+    # two-way contacts: per obstacle row, Σ Δλ ∇C over a substep (collect_impulses; ÷ h the momentum the contacts
+    # gave the cable, ÷ h² the force) and its moment about the world origin; (0, 3) where no body takes them
+    ("impulse_force", _F2, "(B, 3) or (0, 3) kg·m"), ("impulse_moment", _F2, "(B, 3) or (0, 3) kg·m²"),
     # the contact query: static obstacles' bounds, mjData views (struct and arena), the proxy's poses and margins,
     # geom maps, moving geoms and their poses
     ("box_lo", _F2, "(B', 3) m"), ("box_hi", _F2, "(B', 3) m"), ("plane_n", _F2, "(F, 3)"), ("plane_p", _F2, "(F, 3) m"),
@@ -203,9 +225,33 @@ def _direct(S, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs):
 
 
 @_jit
-def _contacts(S, fric, anchor, anchor_ob, seg, geo, lam, pair, sgeo, slam, shapes, impulse):
-    S.fric, S.anchor, S.anchor_ob = fric, anchor, anchor_ob
-    S.seg, S.geo, S.lam, S.pair, S.sgeo, S.slam, S.shapes, S.impulse = seg, geo, lam, pair, sgeo, slam, shapes, impulse
+def _friction(S, fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, fric_ob):
+    S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum = fric_n, fric_mu, fric_slid, fric_nsum
+    S.fric_impulse, S.fric_normal, S.fric_ob = fric_impulse, fric_normal, fric_ob
+
+
+@_jit
+def _anchors(S, fric_unit, fric_push, fric_cone, anchor, anchor_ob):
+    S.fric_unit, S.fric_push, S.fric_cone, S.anchor, S.anchor_ob = fric_unit, fric_push, fric_cone, anchor, anchor_ob
+
+
+@_jit
+def _obstacle_contacts(S, con_seg, con_s, con_normal, con_offset, con_mu, con_shape, con_face, con_lam):
+    S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu = con_seg, con_s, con_normal, con_offset, con_mu
+    S.con_shape, S.con_face, S.con_lam = con_shape, con_face, con_lam
+
+
+@_jit
+def _self_contacts(S, self_pair, self_st, self_normal, self_lam_n, self_lam_t):
+    S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t = (self_pair, self_st, self_normal, self_lam_n,
+                                                                         self_lam_t)
+
+
+@_jit
+def _shapes(S, shape_type, shape_size, shape_pos, shape_rot, shape_moves, impulse_force, impulse_moment):
+    S.shape_type, S.shape_size, S.shape_pos, S.shape_rot = shape_type, shape_size, shape_pos, shape_rot
+    S.shape_moves = shape_moves
+    S.impulse_force, S.impulse_moment = impulse_force, impulse_moment
 
 
 @_jit
@@ -259,7 +305,13 @@ _PARTS = (
     (_constraints, ("rest", "lam_s", "rest_d", "lam_d", "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c")),
     (_pins, ("pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force", "pin_sum", "pin_count")),
     (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs")),
-    (_contacts, ("fric", "anchor", "anchor_ob", "seg", "geo", "lam", "pair", "sgeo", "slam", "shapes", "impulse")),
+    (_friction, ("fric_n", "fric_mu", "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob")),
+    (_anchors, ("fric_unit", "fric_push", "fric_cone", "anchor", "anchor_ob")),
+    (_obstacle_contacts, ("con_seg", "con_s", "con_normal", "con_offset", "con_mu", "con_shape", "con_face",
+                          "con_lam")),
+    (_self_contacts, ("self_pair", "self_st", "self_normal", "self_lam_n", "self_lam_t")),
+    (_shapes, ("shape_type", "shape_size", "shape_pos", "shape_rot", "shape_moves", "impulse_force",
+               "impulse_moment")),
     (_query, ("box_lo", "box_hi", "plane_n", "plane_p", "struct_i32", "struct_i64", "arena_f64", "arena_i32",
               "pose_pos", "pose_quat")),
     (_geoms, ("pair_margin", "segment_of_geom", "shape_of_geom", "geom_friction", "moving", "geom_xpos",
@@ -284,6 +336,14 @@ def assemble(arrays: dict) -> SolverState:
 
 @_jit
 def contact_buffers(S):
-    """The contact buffers (``seg``, ``geo``, ``lam``, ``pair``, ``sgeo``, ``slam``): the compiled query replaces
-    them when they must grow, so Python asks for them rather than keeping its own."""
-    return S.seg, S.geo, S.lam, S.pair, S.sgeo, S.slam
+    """The obstacle-contact buffers (``con_seg``, ``con_s``, ``con_normal``, ``con_offset``, ``con_mu``,
+    ``con_shape``, ``con_face``, ``con_lam``): the compiled query replaces them when they must grow, so Python asks
+    for them rather than keeping its own."""
+    return S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam
+
+
+@_jit
+def self_contact_buffers(S):
+    """The self-contact buffers (``self_pair``, ``self_st``, ``self_normal``, ``self_lam_n``, ``self_lam_t``), as
+    :func:`contact_buffers`."""
+    return S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t

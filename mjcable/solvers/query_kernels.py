@@ -33,7 +33,8 @@ from numba import types
 from numba.extending import intrinsic
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
-from mjcable.solvers.kernels_layout import SH_POS, SH_ROT
+from mjcable.solvers.contact_kernels import box_face
+from mjcable.solvers.kernels_layout import BOX_FACE_NONE, GEOM_BOX
 
 __all__ = ["find_self_contacts", "self_contacts", "query_holds", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
            "refresh_moving", "proxy_poses", "segment_closest"]
@@ -66,9 +67,10 @@ def segment_closest(a, e, f, c, d1d2):
 
 
 @_nogil
-def find_self_contacts(x, reach, pair, sgeo):
+def find_self_contacts(x, reach, pair, st, normal):
     """Pairs of non-adjacent segments (|i − j| ≥ 2, each pair once) whose axes are closer than ``reach`` metres;
-    fills ``pair`` (cap, 2) and ``sgeo`` (cap, 5) = [s, t, n] with n the unit normal from segment j to segment i.
+    fills ``pair`` (cap, 2), the fractions (s, t) of their closest points into ``st`` (cap, 2) and the unit normal
+    from segment j to segment i into ``normal`` (cap, 3).
     Returns the number found, or −1 if more than ``cap`` (the caller grows the buffers and asks again)."""
     nseg = x.shape[0] - 1
     lo = np.empty((nseg, 3))
@@ -105,21 +107,25 @@ def find_self_contacts(x, reach, pair, sgeo):
                 return -1
             pair[count, 0] = i
             pair[count, 1] = j
-            sgeo[count, 0] = s
-            sgeo[count, 1] = t
-            sgeo[count, 2] = d0 / dist
-            sgeo[count, 3] = d1 / dist
-            sgeo[count, 4] = d2 / dist
+            st[count, 0] = s
+            st[count, 1] = t
+            normal[count, 0] = d0 / dist
+            normal[count, 1] = d1 / dist
+            normal[count, 2] = d2 / dist
             count += 1
     return count
 
 
 @_inline
-def _take_contact(g0, g1, dist, pos_x, pos_y, pos_z, f0, f1, f2, segment_of_geom, shape_of_geom, geom_friction, x,
-                  radius, seg, geo, at_particle, count):
-    """One MuJoCo contact (geoms ``g0``, ``g1``, ``dist``, ``pos``, ``frame[:3]`` = f) into row ``count`` of ``seg``,
-    ``geo`` (see :func:`contacts_from_mujoco`); returns the new count (unchanged for a contact that is not between
-    a capsule and an obstacle, or that repeats one already acting at the same particle)."""
+def _take_contact(S, g0, g1, dist, pos, frame, at_particle, count):
+    """One MuJoCo contact (geoms ``g0``, ``g1``, ``dist``, ``pos`` and ``frame[:3]`` as 3 floats each) into row
+    ``count`` of the state's obstacle-contact buffers (see :func:`contacts_from_mujoco`); returns the new count
+    (unchanged for a contact that is not between a capsule and an obstacle, or that repeats one already acting at
+    the same particle). ``at_particle`` (N,): the contact already acting at each particle (−1: none)."""
+    segment_of_geom, shape_of_geom = S.segment_of_geom, S.shape_of_geom
+    x, radius = S.x, S.par[0].radius
+    pos_x, pos_y, pos_z = pos
+    f0, f1, f2 = frame
     s0 = segment_of_geom[g0]
     s1 = segment_of_geom[g1]
     if (s0 >= 0) == (s1 >= 0):
@@ -139,28 +145,35 @@ def _take_contact(g0, g1, dist, pos_x, pos_y, pos_z, f0, f1, f2, segment_of_geom
     if e2 > 0.0:
         frac = ((px - x[i, 0]) * ex + (py - x[i, 1]) * ey + (pz - x[i, 2]) * ez) / e2
     frac = 0.0 if frac < _END_FRACTION else (1.0 if frac > 1.0 - _END_FRACTION else frac)
+    con_normal = S.con_normal
     if frac == 0.0 or frac == 1.0:  # at a particle: the neighbouring capsule's end contact may be the same
         p = i if frac == 0.0 else i + 1
         q = at_particle[p]
-        if q >= 0 and geo[q, 6] == shape_of_geom[other] and (
-                geo[q, 1] * nx + geo[q, 2] * ny + geo[q, 3] * nz > _SAME_NORMAL):
+        if q >= 0 and S.con_shape[q] == shape_of_geom[other] and (
+                con_normal[q, 0] * nx + con_normal[q, 1] * ny + con_normal[q, 2] * nz > _SAME_NORMAL):
             return count
         at_particle[p] = count
-    seg[count] = i
-    geo[count, 0] = frac
-    geo[count, 1], geo[count, 2], geo[count, 3] = nx, ny, nz
-    geo[count, 4] = nx * qx + ny * qy + nz * qz + radius
-    geo[count, 5] = geom_friction[other, 0]
-    geo[count, 6] = shape_of_geom[other]
+    S.con_seg[count] = i
+    S.con_s[count] = frac
+    con_normal[count, 0], con_normal[count, 1], con_normal[count, 2] = nx, ny, nz
+    S.con_offset[count] = nx * qx + ny * qy + nz * qz + radius
+    S.con_mu[count] = S.geom_friction[other, 0]
+    row = shape_of_geom[other]
+    S.con_shape[count] = row
+    # a static box's face, once (a moving box's rotation changes: every sweep finds it)
+    static_box = row >= 0 and S.shape_type[row] == GEOM_BOX and not S.shape_moves[row]
+    S.con_face[count] = box_face(S.shape_rot, row, nx, ny, nz) if static_box else BOX_FACE_NONE
     return count + 1
 
 
 @_jit
-def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, shape_of_geom, geom_friction, x, radius, seg, geo):
+def contacts_from_mujoco(S, geom, dist, pos, frame):
     """Turn MuJoCo's contacts (``geom`` (c, 2), ``dist`` (c,), ``pos`` (c, 3), ``frame`` (c, 9)) between proxy
-    capsules and obstacles into the solver's contacts: fills ``seg`` and ``geo`` = [s, n, offset, μ, shape row]
-    (see :func:`mjcable.solvers.contact_kernels.contact_sweep`; ``shape_of_geom`` maps a geom id to its row of
-    ``Contacts.shapes``, −1 for none) and returns their number.
+    capsules and obstacles into the state's contacts: fills its obstacle-contact buffers (segment ``con_seg``,
+    fraction ``con_s``, normal ``con_normal``, ``con_offset``, ``con_mu``, shape row ``con_shape`` and a static
+    box's face ``con_face``, see
+    :func:`mjcable.solvers.contact_kernels.contact_sweep`; ``S.shape_of_geom`` maps a geom id to its shape row, −1
+    for none) and returns their number. The buffers must hold ``c`` contacts (:func:`reserve_contacts`).
 
     MuJoCo's normal points from geom[0] to geom[1] and ``pos`` lies midway between the surfaces; with n the normal
     from the obstacle to the cable, the obstacle's surface point is q = pos − (dist/2) n and the capsule's axis
@@ -169,11 +182,10 @@ def contacts_from_mujoco(geom, dist, pos, frame, segment_of_geom, shape_of_geom,
     touch an obstacle there with the same normal (a cable lying on a flat face: MuJoCo gives each capsule a contact
     at each end) are one contact at that particle, kept once."""
     count = 0
-    at_particle = np.full(x.shape[0], -1, dtype=np.int64)  # the contact already acting at a particle (s = 0 or 1)
+    at_particle = np.full(S.x.shape[0], -1, dtype=np.int64)  # the contact already acting at a particle (s = 0 or 1)
     for c in range(dist.shape[0]):
-        count = _take_contact(geom[c, 0], geom[c, 1], dist[c], pos[c, 0], pos[c, 1], pos[c, 2], frame[c, 0],
-                              frame[c, 1], frame[c, 2], segment_of_geom, shape_of_geom, geom_friction, x, radius, seg,
-                              geo, at_particle, count)
+        count = _take_contact(S, geom[c, 0], geom[c, 1], dist[c], (pos[c, 0], pos[c, 1], pos[c, 2]),
+                              (frame[c, 0], frame[c, 1], frame[c, 2]), at_particle, count)
     return count
 
 
@@ -213,39 +225,48 @@ def query_holds(x, margin, query_x, query_margin):
 
 @_jit
 def reserve_contacts(S, capacity):
-    """Grow the obstacle-contact buffers ``S.seg``, ``S.geo``, ``S.lam`` to hold at least ``capacity`` contacts (to
-    twice that, when they must grow)."""
-    if capacity > S.seg.shape[0]:
-        S.seg = np.zeros(2 * capacity, dtype=np.int64)
-        S.geo = np.zeros((2 * capacity, 7))
-        S.lam = np.zeros(2 * capacity)
+    """Grow the obstacle-contact buffers (``S.con_*``) together to hold at least ``capacity`` contacts (to twice
+    that, when they must grow)."""
+    if capacity > S.con_seg.shape[0]:
+        cap = 2 * capacity
+        S.con_seg = np.zeros(cap, dtype=np.int64)
+        S.con_s = np.zeros(cap)
+        S.con_normal = np.zeros((cap, 3))
+        S.con_offset = np.zeros(cap)
+        S.con_mu = np.zeros(cap)
+        S.con_shape = np.zeros(cap, dtype=np.int64)
+        S.con_face = np.zeros(cap, dtype=np.int64)
+        S.con_lam = np.zeros(cap)
 
 
 @_jit
 def self_contacts(S, reach):
-    """Self contacts of the chain ``S.x`` closer than ``reach`` metres (:func:`find_self_contacts`) into ``S.pair``,
-    ``S.sgeo`` (grown until they hold them all); returns their number."""
-    count = find_self_contacts(S.x, reach, S.pair, S.sgeo)
+    """Self contacts of the chain ``S.x`` closer than ``reach`` metres (:func:`find_self_contacts`) into
+    ``S.self_pair``, ``S.self_st``, ``S.self_normal`` (the self-contact buffers, grown together until they hold them
+    all); returns their number."""
+    count = find_self_contacts(S.x, reach, S.self_pair, S.self_st, S.self_normal)
     while count < 0:
-        cap = max(2 * S.pair.shape[0], 1)
-        S.pair = np.zeros((cap, 2), dtype=np.int64)
-        S.sgeo = np.zeros((cap, 5))
-        S.slam = np.zeros((cap, 2))
-        count = find_self_contacts(S.x, reach, S.pair, S.sgeo)
+        cap = max(2 * S.self_pair.shape[0], 1)
+        S.self_pair = np.zeros((cap, 2), dtype=np.int64)
+        S.self_st = np.zeros((cap, 2))
+        S.self_normal = np.zeros((cap, 3))
+        S.self_lam_n = np.zeros(cap)
+        S.self_lam_t = np.zeros(cap)
+        count = find_self_contacts(S.x, reach, S.self_pair, S.self_st, S.self_normal)
     return count
 
 
 @_inline
 def refresh_moving(S):
-    """The moving obstacles' rows of ``S.shapes`` from the world's current geom poses (``S.geom_xpos``,
-    ``S.geom_xmat``)."""
-    moving, shapes = S.moving, S.shapes
+    """The moving obstacles' rows of ``S.shape_pos``, ``S.shape_rot`` from the world's current geom poses
+    (``S.geom_xpos``, ``S.geom_xmat``)."""
+    moving, shape_pos, shape_rot = S.moving, S.shape_pos, S.shape_rot
     for r in range(moving.shape[0]):
         g, row = moving[r, 0], moving[r, 1]
         for c in range(3):
-            shapes[row, SH_POS + c] = S.geom_xpos[g, c]
+            shape_pos[row, c] = S.geom_xpos[g, c]
         for c in range(9):
-            shapes[row, SH_ROT + c] = S.geom_xmat[g, c]
+            shape_rot[row, c // 3, c % 3] = S.geom_xmat[g, c]
 
 
 @_jit
@@ -254,7 +275,7 @@ def query_obstacles(S, margin):
     capsules from ``S.x`` (:func:`proxy_poses` into the ``mocap_pos``, ``mocap_quat`` views), ``mj_kinematics``,
     the cable's pair margins (``S.pair_margin`` rows ``par.pair_start`` to ``par.pair_stop``) set to ``margin``,
     ``mj_collision``, then MuJoCo's contacts (``ncon`` and the contact array, read from the ``mjData`` struct and
-    arena views at the offsets of :class:`mjcable.solvers.capi.Layout`) into ``S.seg``, ``S.geo`` as
+    arena views at the offsets of :class:`mjcable.solvers.capi.Layout`) into the obstacle-contact buffers as
     :func:`contacts_from_mujoco` (grown to hold them). Returns their number, or −1 when the contact array does not
     lie, aligned, inside the arena (the caller queries through the bindings from then on).
 
@@ -277,16 +298,15 @@ def query_obstacles(S, margin):
     arena_f64, arena_i32 = S.arena_f64, S.arena_i32
     if base < 0 or base % 8 != 0 or base + ncon * stride > 8 * arena_f64.shape[0]:
         return -1
-    seg, geo = S.seg, S.geo
     count = 0
     at_particle = np.full(x.shape[0], -1, dtype=np.int64)
     for c in range(ncon):
         row = base + c * stride
         d, p, f, g = ((row + P.off_dist) // 8, (row + P.off_pos) // 8, (row + P.off_frame) // 8,
                       (row + P.off_geom) // 4)
-        count = _take_contact(arena_i32[g], arena_i32[g + 1], arena_f64[d], arena_f64[p], arena_f64[p + 1],
-                              arena_f64[p + 2], arena_f64[f], arena_f64[f + 1], arena_f64[f + 2], S.segment_of_geom,
-                              S.shape_of_geom, S.geom_friction, x, P.radius, seg, geo, at_particle, count)
+        count = _take_contact(S, arena_i32[g], arena_i32[g + 1], arena_f64[d],
+                              (arena_f64[p], arena_f64[p + 1], arena_f64[p + 2]),
+                              (arena_f64[f], arena_f64[f + 1], arena_f64[f + 2]), at_particle, count)
     return count
 
 

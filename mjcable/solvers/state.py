@@ -110,6 +110,16 @@ class StateArrays(dict):
     __getattr__ = dict.__getitem__
 
 
+def _contact_buffers(capacity: int, self_capacity: int) -> dict:
+    """Empty obstacle- and self-contact buffers (the state's ``con_*`` and ``self_*``) for ``capacity`` and
+    ``self_capacity`` contacts (the compiled query grows them)."""
+    c, s = capacity, self_capacity
+    return dict(con_seg=np.zeros(c, dtype=np.int64), con_s=np.zeros(c), con_normal=np.zeros((c, 3)),
+                con_offset=np.zeros(c), con_mu=np.zeros(c), con_shape=np.zeros(c, dtype=np.int64),
+                con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64), self_st=np.zeros((s, 2)),
+                self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s))
+
+
 def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> StateArrays:
     """The solver state of ``scene`` at rest in its start shape: every field, those of the contact query and of a
     user world's host empty (the backend fills them in).
@@ -174,13 +184,12 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         pin_p=pin_p, pin_from=pin_from, pin_to=pin_from.copy(), pin_active=np.ones(n_pins, dtype=np.bool_),
         pin_release=release, pin_force=np.zeros((n_pins, 3)), pin_sum=np.zeros((n_pins, 3)),
         pin_count=np.zeros(n_pins),
-        fric=np.zeros((n_particles, layout.N_FR)), anchor=np.zeros((n_particles, 3)),
-        anchor_ob=np.full(n_particles, -1, dtype=np.int64),
-        seg=np.zeros(_CONTACT_CAPACITY * n, dtype=np.int64), geo=np.zeros((_CONTACT_CAPACITY * n, 7)),
-        lam=np.zeros(_CONTACT_CAPACITY * n),
-        pair=np.zeros((_SELF_CONTACT_CAPACITY * n, 2), dtype=np.int64), sgeo=np.zeros((_SELF_CONTACT_CAPACITY * n, 5)),
-        slam=np.zeros((_SELF_CONTACT_CAPACITY * n, 2)), shapes=np.zeros((0, layout.N_SH)), impulse=np.zeros((0, 6)),
-        par=par, **rows)
+        fric_n=np.zeros(n_particles), fric_mu=np.zeros(n_particles), fric_slid=np.zeros(n_particles, dtype=np.bool_),
+        fric_nsum=np.zeros((n_particles, 3)), fric_impulse=np.zeros((n_particles, 3)),
+        fric_normal=np.zeros((n_particles, 3)), fric_ob=np.zeros(n_particles, dtype=np.int64),
+        fric_unit=np.zeros((n_particles, 3)), fric_push=np.zeros((n_particles, 3)), fric_cone=np.zeros(n_particles),
+        anchor=np.zeros((n_particles, 3)), anchor_ob=np.full(n_particles, -1, dtype=np.int64),
+        par=par, **rows, **_contact_buffers(_CONTACT_CAPACITY * n, _SELF_CONTACT_CAPACITY * n))
     for name, typ, _ in layout.FIELDS:  # the query's and the host's fields: empty until the backend fills them
         if name not in a:
             a[name] = np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype)))
