@@ -5,9 +5,11 @@ Outputs in ``--out`` (default ``bench_out``):
 
 * ``bench.csv``: one row per run (columns :data:`mjcable.bench.results.COLUMNS`), appended as runs finish; a
   re-run resumes by skipping the runs already there;
-* ``work_precision_<scenario>.png``: error against wall time per simulated second, one line per model;
-* ``pareto.md``: each model's Pareto front per scenario, the stiffness-effect table, the skip rows, the
-  convergence table and every failed run's reason;
+* ``work_precision_<scenario>.png``: error against wall time per simulated second, one line per model (the
+  catenary's includes the equal-error grid, :func:`cost_cases`: n_segments, dt and substeps);
+* ``pareto.md``: each model's Pareto front per scenario, the cost at equal error (each model's cheapest catenary
+  run within :data:`COST_TARGET`), the stiffness-effect table, the skip rows, the convergence table and every
+  failed run's reason;
 * ``stiffness_grid.png``: the thesis's stiffness-effect grid (iterations {1, 12, 25} × dt {0.02, 0.002, 0.0002})
   for every particle model's label: the cable's shape at t = 0.25 s.
 """
