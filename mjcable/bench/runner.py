@@ -36,7 +36,7 @@ from mjcable.bench.results import empty_row
 from mjcable.errors import SimulationDivergedError
 from mjcable.simulator import Simulator
 
-__all__ = ["run_case", "warm_up_models", "SAMPLE_INTERVAL"]
+__all__ = ["run_case", "warm_up_models", "SAMPLE_INTERVAL", "CALL_INTERVAL"]
 
 SAMPLE_INTERVAL = 0.005  # s of simulated time between samples of the state (at least one step)
 CALL_INTERVAL = 0.1  # s of simulated time a particle solver runs per call (whole samples), as a user's step(T)
