@@ -103,6 +103,36 @@ def test_chain_scene_starts_in_mode_one():
     assert scene.cable.length == pytest.approx(1.0, abs=1e-3)
 
 
+# ------------------------------------------------------------------------------------------------ stepping
+
+@pytest.mark.parametrize("model", ["springs", "xpbd"])
+def test_the_runner_steps_as_a_user_does(model):
+    # the runner advances in whole samples (a particle solver in long rollouts, a native model two calls a sample):
+    # the same state, bit for bit, as one Simulator.step(T) of the same case
+    case = Case("catenary", model, 0.002, n_segments=8, params=(("duration", 0.3), ("save_positions", 1)))
+    row = run_case(case)
+    assert row["outcome"] == "stable" and row["steps"] == 150
+    sim = mjcable.Simulator(scenarios.get("catenary").make_scene(8, {}), model, dt=0.002)
+    sim.step(0.3)
+    assert np.array_equal(np.array(row["positions"]), sim.positions)
+
+
+@pytest.mark.parametrize("model", ["springs", "xpbd"])
+def test_the_yank_follows_its_gripper_path_as_step_by_step_moves(model):
+    # the speed scenario hands its gripper path to step_along: the state of one move_gripper and step() per step
+    params = (("duration", 0.02), ("save_positions", 1), ("speed", 20.0))
+    row = run_case(Case("speed", model, 0.002, n_segments=8, params=params))
+    assert row["outcome"] == "stable"
+    scene = scenarios.yank_scene(8)
+    sim = mjcable.Simulator(scene, model, dt=0.002)
+    start = np.asarray(scene.cable.particles[0])
+    for k in range(row["steps"]):
+        travelled = min(max(k * 0.002 - scenarios.YANK_SETTLE, 0.0) * 20.0, scenarios.YANK_DISTANCE)
+        sim.move_gripper(0, start + travelled * scenarios.YANK_DIRECTION)
+        sim.step()
+    assert np.array_equal(np.array(row["positions"]), sim.positions)
+
+
 # ------------------------------------------------------------------------------------------------ classifier
 
 def _inject(setup):
@@ -352,14 +382,16 @@ def test_cli_bench_on_a_scheduler_runs_a_model_registered_here(tmp_path, capsys)
     with _registered("throwaway"), _cluster(processes=True) as cluster:
         status = cli.main(["bench", "--quick", "--scheduler", cluster.scheduler_address, "--out", str(out),
                            "--models", "throwaway"])
+        defaults = {c.key for c in accuracy.accuracy_cases(quick=True, models=["throwaway"])}
         expected = {c.key for c in accuracy.accuracy_cases(quick=True, models=["throwaway"])
                     + accuracy.stiffness_cases(models=["throwaway"])
-                    + accuracy.skip_cases(models=["throwaway"], repeats=2)}
+                    + accuracy.skip_cases(models=["throwaway"], repeats=2)
+                    + accuracy.cost_cases(models=["throwaway"])}
     assert status == 0
     rows = results.read_rows(out / "bench.csv")
     assert {r["key"] for r in rows} == expected and len(rows) == len(expected)
     assert {r["model"] for r in rows} == {"throwaway"}
-    catenary = [r for r in rows if r["scenario"] == "catenary"]
+    catenary = [r for r in rows if r["scenario"] == "catenary" and r["key"] in defaults]  # not the equal-error grid
     assert catenary and all(r["outcome"] == "stable" and r["error"] < 0.05 for r in catenary), catenary
     assert all(r["outcome"] in OUTCOMES for r in rows)
     assert cluster.scheduler_address in (out / "pareto.md").read_text()
@@ -403,6 +435,9 @@ def test_plots_and_tables_are_written(tmp_path):
     assert (tmp_path / "wp.png").stat().st_size > 1000
     md = plots.pareto_markdown(rows)
     assert "| springs |" in md and "| joints | (no stable run" in md
+    md = plots.cheapest_markdown(rows, 5e-4)
+    assert "| springs | yes | 50 | 0.002 | 1 | – | 0.0001 | 3 |" in md  # the cheaper run misses 5e-4
+    assert "| xpbd | no: its lowest error |" in md and "| joints | no stable run (diverged) |" in md
     stress = [dict(_row("springs", 1.0, math.nan, scenario="speed", outcome=o), dt=dt, params=f'{{"speed": {v}}}')
               for o, dt, v in (("stable", 0.002, 1.0), ("diverged", 0.05, 20.0), ("tunneled", 0.05, 1.0))]
     assert plots.stability_map(stress, "springs", str(tmp_path / "map.png"))

@@ -5,9 +5,11 @@ Outputs in ``--out`` (default ``bench_out``):
 
 * ``bench.csv``: one row per run (columns :data:`mjcable.bench.results.COLUMNS`), appended as runs finish; a
   re-run resumes by skipping the runs already there;
-* ``work_precision_<scenario>.png``: error against wall time per simulated second, one line per model;
-* ``pareto.md``: each model's Pareto front per scenario, the stiffness-effect table, the skip rows, the
-  convergence table and every failed run's reason;
+* ``work_precision_<scenario>.png``: error against wall time per simulated second, one line per model (the
+  catenary's includes the equal-error grid, :func:`cost_cases`: n_segments, dt and substeps);
+* ``pareto.md``: each model's Pareto front per scenario, the cost at equal error (each model's cheapest catenary
+  run within :data:`COST_TARGET`), the stiffness-effect table, the skip rows, the convergence table and every
+  failed run's reason;
 * ``stiffness_grid.png``: the thesis's stiffness-effect grid (iterations {1, 12, 25} × dt {0.02, 0.002, 0.0002})
   for every particle model's label: the cable's shape at t = 0.25 s.
 """
@@ -37,6 +39,8 @@ __all__ = [
     "stiffness_cases",
     "skip_cases",
     "convergence_cases",
+    "cost_cases",
+    "COST_TARGET",
     "run_bench",
     "write_reports",
     "cli_bench",
@@ -59,6 +63,12 @@ CONVERGENCE_DT = 0.001  # the finest dt of the convergence check; its half is ru
 TIME_CAP_BENCH = 600.0  # s of wall time per run (joints and composite cost ~1 ms per MuJoCo step)
 TIME_CAP_QUICK = 40.0
 _AT_REFERENCE = 1e-9  # m: errors this small are round-off, not a convergence question
+COST_SCENARIO = "catenary"  # the equal-error table's scene
+COST_TARGET = 1e-4  # m RMS: the error every model is asked to reach at its lowest cost
+COST_SEGMENTS = (25, 50, 100, 200)
+COST_DTS = (0.005, 0.002, 0.001)
+COST_PARTICLE_SUBSTEPS = (1, 4, 16)  # one iteration each: substeps, not iterations (*Small Steps*)
+TIME_CAP_COST = 30.0  # s of wall time: a run over it costs > 15 s/s (2 s simulated), never the cheapest here
 
 
 def _particle(iterations: int, substeps: int) -> tuple:
@@ -144,6 +154,24 @@ def convergence_cases(*, models: Optional[Sequence[str]] = None, quick: bool = F
     return out
 
 
+def cost_cases(*, models: Optional[Sequence[str]] = None) -> List[Case]:
+    """The equal-error grid on :data:`COST_SCENARIO` (``--quick`` duration, 2 s simulated): n_segments ∈
+    :data:`COST_SEGMENTS` × dt ∈ :data:`COST_DTS` × substeps (particle models :data:`COST_PARTICLE_SUBSTEPS` at one
+    iteration; native models 1, the default d and 4 d, as in the full sweep), each run capped at
+    :data:`TIME_CAP_COST` s. The table (:func:`mjcable.bench.plots.cheapest_markdown`) takes each model's cheapest
+    stable run within :data:`COST_TARGET`."""
+    out = []
+    for model in case_mod.model_labels(models):
+        if case_mod.family(model) == "native":
+            default = int(getattr(case_mod.settings_of(model), "substeps", 1))
+            settings = [(("substeps", s),) for s in sorted({1, default, NATIVE_SUBSTEP_FACTOR * default})]
+        else:
+            settings = [_particle(1, s) for s in COST_PARTICLE_SUBSTEPS]
+        for n, dt, st in itertools.product(COST_SEGMENTS, COST_DTS, settings):
+            out.append(Case(COST_SCENARIO, model, dt, n_segments=n, settings=st, quick=True, time_cap=TIME_CAP_COST))
+    return out
+
+
 def _convergence_markdown(rows: Sequence[dict], csv_path: str) -> str:
     lines = ["| scenario | model | settings | error at dt (m) | error at dt/2 (m) | RMS change dt → dt/2 (m) | "
              "converged (change < error) |", "|---|---|---|---|---|---|---|"]
@@ -207,7 +235,8 @@ def run_bench(out: str, *, quick: bool = False, jobs: int = 1, scheduler=None,
       scenario_names: accuracy scenarios (default all; ``--quick``: all, with one run on the two not in
         :data:`QUICK_SCENARIOS`).
       progress: tqdm progress bars.
-      extras: also run the stiffness-effect grid, the skip rows and (full sweep) the convergence check.
+      extras: also run the stiffness-effect grid, the skip rows, the equal-error grid (:func:`cost_cases`) and
+        (full sweep) the convergence check.
 
     Returns:
       The latest row per run of ``bench.csv``.
@@ -219,6 +248,7 @@ def run_bench(out: str, *, quick: bool = False, jobs: int = 1, scheduler=None,
     if extras:
         cases += stiffness_cases(models=models)
         cases += skip_cases(models=models, repeats=2 if quick else 3)
+        cases += cost_cases(models=models)
         if not quick:
             cases += convergence_cases(models=models)
     start = time.perf_counter()
@@ -261,6 +291,16 @@ def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float 
           "(catenary, heavy elastica, ideal rest on the table, ideal drape over the peg); `chain`: relative error "
           "of the mode-1 angular frequency. Cost: wall time of the stepping per simulated second.\n",
           "## Pareto fronts\n", plots.pareto_markdown(accuracy)]
+    cost_keys = {c.key for c in cost_cases(models=[m for m in dict.fromkeys(r["model"] for r in rows)
+                                                   if m in case_mod.MODEL_LABELS])}
+    cost = [r for r in rows if r["key"] in cost_keys]
+    if cost:
+        md += ["## Cost at equal error\n",
+               f"Each model's cheapest stable run on `{COST_SCENARIO}` with an RMS error within {COST_TARGET:g} m, "
+               f"over n_segments {list(COST_SEGMENTS)} × dt {list(COST_DTS)} s × substeps (particle models "
+               f"{list(COST_PARTICLE_SUBSTEPS)} at one iteration; native models 1, the default and 4× it), "
+               f"2 s simulated, each run capped at {TIME_CAP_COST:g} s of wall time.\n",
+               plots.cheapest_markdown(cost, COST_TARGET)]
     if swing:
         md += ["## Stiffness effects (thesis §3.4.3)\n",
                f"A 1 m cable (E·A = {scenarios.SWING_STRETCH_STIFFNESS:g} N) pinned at one end, released "

@@ -19,6 +19,7 @@ __all__ = [
     "pareto_front",
     "work_precision",
     "pareto_markdown",
+    "cheapest_markdown",
     "stiffness_grid_png",
     "stiffness_grid_markdown",
     "stability_map",
@@ -138,6 +139,30 @@ def pareto_markdown(rows: Sequence[dict]) -> str:
                            f"{r['max_strain']:.2g} | {r['max_penetration']:.2g} |")
         out.append("")
     return "\n".join(out)
+
+
+def cheapest_markdown(rows: Sequence[dict], target: float) -> str:
+    """A Markdown table of each model's cheapest stable run (least ``wall_per_sim_s``) whose error is within
+    ``target``: its n_segments, dt, substeps, iterations, error and cost; a model that never reaches it gets its
+    lowest error and that run's cost instead."""
+    lines = [f"| model | reaches {target:g}? | n_segments | dt (s) | substeps | iterations | error | "
+             "wall s per sim s |", "|---|---|---|---|---|---|---|---|"]
+    for model in _models(rows):
+        mine = _usable(r for r in rows if r["model"] == model)
+        if not mine:
+            outcomes = sorted({r["outcome"] for r in rows if r["model"] == model})
+            lines.append(f"| {model} | no stable run ({', '.join(outcomes)}) | | | | | | |")
+            continue
+        within = [r for r in mine if r["error"] <= target]
+        if within:
+            r, verdict = min(within, key=lambda r: r["wall_per_sim_s"]), "yes"
+        else:
+            r, verdict = min(mine, key=lambda r: r["error"]), "no: its lowest error"
+        cells = [int(r["n_segments"]), f"{r['dt']:g}"] + [int(r[k]) if _finite(r.get(k)) else "–"
+                                                          for k in ("substeps", "iterations")]
+        lines.append(f"| {model} | {verdict} | " + " | ".join(str(c) for c in cells)
+                     + f" | {r['error']:.2g} | {r['wall_per_sim_s']:.3g} |")
+    return "\n".join(lines) + "\n"
 
 
 def stiffness_grid_png(results: Dict[str, Dict[tuple, np.ndarray]], path: str, *, iterations: Sequence[int],

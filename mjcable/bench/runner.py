@@ -2,11 +2,19 @@
 state, classify the outcome (:mod:`mjcable.bench.outcome`) and measure the error; one CSV row
 (:mod:`mjcable.bench.results`) per case.
 
-The time cap is a deadline checked in the runner's own loop (after the build and after every sample of the state,
-i.e. every :data:`SAMPLE_INTERVAL` of simulated time or every step, whichever is longer), not a signal: it works in
-any thread, e.g. on a Dask worker's thread (:mod:`mjcable.bench.sweep`). It counts from the timed build; the
-untimed warm-up before it (JIT compilation or loading numba's cache) is not charged to the case. A single build or
-step is not interrupted: the cap takes effect at the next check.
+The runner steps the way a user does, so that its wall times are a user's: a particle solver runs
+:data:`CALL_INTERVAL` of simulated time per :meth:`~mjcable.Simulator.rollout` (its compiled step loop, each step's
+positions recorded inside it); a native model, whose steps are a Python loop anyway, takes two
+:meth:`~mjcable.Simulator.step` calls per sample (all but one step, then one), which keeps MuJoCo's clock at every
+sample for the silent-reset check and costs no recorded velocities. A scenario's ``gripper_path`` goes to
+:meth:`~mjcable.Simulator.step_along` in the same pairs; a general ``drive`` acts before every sample (every step
+while active). Either way the state is sampled every :data:`SAMPLE_INTERVAL` of simulated time (or every step,
+whichever is longer), together with the positions one step before it (finite-difference speeds and energies).
+
+The time cap is a deadline checked between the runner's calls (after the build and after every call of the
+simulator), not a signal: it works in any thread, e.g. on a Dask worker's thread (:mod:`mjcable.bench.sweep`). It
+counts from the timed build; the untimed warm-up before it (JIT compilation or loading numba's cache) is not
+charged to the case. A single build or call is not interrupted: the cap takes effect at the next check.
 """
 
 from __future__ import annotations
@@ -14,7 +22,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from typing import Iterable
+from typing import Iterable, Optional
 
 import numpy as np
 
@@ -28,9 +36,10 @@ from mjcable.bench.results import empty_row
 from mjcable.errors import SimulationDivergedError
 from mjcable.simulator import Simulator
 
-__all__ = ["run_case", "warm_up_models", "SAMPLE_INTERVAL"]
+__all__ = ["run_case", "warm_up_models", "SAMPLE_INTERVAL", "CALL_INTERVAL"]
 
 SAMPLE_INTERVAL = 0.005  # s of simulated time between samples of the state (at least one step)
+CALL_INTERVAL = 0.1  # s of simulated time a particle solver runs per call (whole samples), as a user's step(T)
 
 
 class _TimeCap(BaseException):
@@ -96,7 +105,9 @@ def _warm_up(scene, model: str, dt: float, settings: dict) -> None:
     """Build the same model once and take a step, so that JIT compilation and cache loading (numba) stay out of
     the timed stepping; failures are left for the real run to report."""
     try:
-        Simulator(scene, model, dt=dt, **settings).step()
+        sim = Simulator(scene, model, dt=dt, **settings)
+        sim.step()
+        sim.rollout(dt)
     except Exception:  # noqa: BLE001 - failures are left for the timed build to report
         pass
 
@@ -131,6 +142,7 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
     duration = float(duration) + scenario.drive_end(params)
     total_steps = max(1, int(round(duration / dt)))
     per_sample = max(1, int(round(SAMPLE_INTERVAL / dt)))
+    per_call = per_sample * max(1, int(round(CALL_INTERVAL / (per_sample * dt))))
     masses = sim.particle_masses  # the scenario's setup may have added a load
     l0 = scene.cable.segment_length
     scale = float(masses.sum()) * 9.81 * max(scene.cable.length, 1e-3)
@@ -148,38 +160,41 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
     steps = 0
     reason, outcome = "", "stable"
     try:
-        while steps < total_steps:
+        while steps < total_steps and outcome == "stable":
+            driving = steps * dt < drive_end + dt
             count = min(per_sample, total_steps - steps)
+            path = None
             if scenario.drive is not None:
-                # the drive moves in whole steps: one step at a time while it is active
-                if steps * dt < drive_end + dt:
-                    count = 1
                 scenario.drive(sim, steps * dt, params)
+                if driving:
+                    count = 1  # the drive acts between steps while it is active
+            elif scenario.gripper_path is not None and driving:
+                path = scenario.gripper_path(scene, (steps + np.arange(count)) * dt, params)
             t0 = time.perf_counter()
-            for _ in range(count - 1):
-                sim.step()
+            if scenario.drive is None and path is None and sim.family == "particle":
+                samples = _sample_chunk(sim, min(per_call, total_steps - steps), per_sample)
+            else:
+                samples = _sample_pair(sim, count, path)
             step_wall += time.perf_counter() - t0
-            previous = sim.positions  # the state one step before the sample: finite-difference velocities
-            t0 = time.perf_counter()
-            sim.step()
-            step_wall += time.perf_counter() - t0
-            steps += count
+            start, steps = steps, steps + samples[-1][0]
             row.update(step_wall_s=step_wall, sim_time=steps * dt, steps=steps)  # progress, kept on a time cap
-            x = sim.positions
-            strain = metrics.max_strain(x, l0)
-            max_strain = max(max_strain, strain)
-            max_pen = max(max_pen, metrics.penetration(x, scene))
-            if scenario.needs_com_x:
-                times.append(sim.time)
-                com_x.append(float(np.dot(masses, x[:, 0]) / masses.sum()))
-            verdict = judge(limits, time=sim.time, strain=strain,
-                            speed=float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt,
-                            energy_growth=metrics.energy(x, previous, dt, masses) - e_ref,
-                            mj_time=float(sim.mj_data.time),
-                            crossed=int(np.sum(metrics.crossed(x, scene, x0))))
-            if verdict is not None:
-                outcome, reason = verdict
-                break
+            last = len(samples) - 1
+            for k, (taken, previous, x) in enumerate(samples):
+                at = start + taken
+                strain = metrics.max_strain(x, l0)
+                max_strain = max(max_strain, strain)
+                max_pen = max(max_pen, metrics.penetration(x, scene))
+                if scenario.needs_com_x:
+                    times.append(at * dt)
+                    com_x.append(float(np.dot(masses, x[:, 0]) / masses.sum()))
+                verdict = judge(limits, time=at * dt, strain=strain,
+                                speed=float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt,
+                                energy_growth=metrics.energy(x, previous, dt, masses) - e_ref,
+                                mj_time=float(sim.mj_data.time) if k == last else at * dt,
+                                crossed=int(np.sum(metrics.crossed(x, scene, x0))))
+                if verdict is not None:
+                    outcome, reason = verdict
+                    break
             _check_deadline(deadline)
     except SimulationDivergedError as exc:
         outcome, reason = "diverged", exc.reason
@@ -205,3 +220,30 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
             row["error"] = float(scenario.evaluate(scene, x, history))
         except Exception as exc:  # noqa: BLE001 - a failed measurement is recorded, not raised
             row["reason"] = f"error measurement failed: {type(exc).__name__}: {exc}"
+
+
+def _sample_pair(sim, count: int, path: Optional[np.ndarray] = None) -> list:
+    """Advance ``count`` steps in two calls, ``count - 1`` steps and then one (:meth:`Simulator.step`, or
+    :meth:`Simulator.step_along` the ``(count, G, 3)`` gripper ``path``), and return the one sample at the end:
+    ``[(steps taken, positions one step before, positions)]``, positions (n, 3) in metres."""
+    if count > 1:
+        if path is None:
+            sim.step((count - 1) * sim.dt)
+        else:
+            sim.step_along(path[:-1])
+    previous = sim.positions
+    if path is None:
+        sim.step()
+    else:
+        sim.step_along(path[-1:])
+    return [(count, previous, sim.positions)]
+
+
+def _sample_chunk(sim, count: int, per_sample: int) -> list:
+    """Advance ``count`` steps in one :meth:`Simulator.rollout` (a particle solver's compiled loop, each step's
+    positions recorded inside it) and return the samples every ``per_sample`` steps and at the end, as
+    :func:`_sample_pair` does."""
+    before = sim.positions
+    x = sim.rollout(count * sim.dt).positions  # (count, n, 3): after steps 1..count of the call
+    ends = sorted({*range(per_sample, count + 1, per_sample), count})
+    return [(k, x[k - 2] if k > 1 else before, x[k - 1]) for k in ends]

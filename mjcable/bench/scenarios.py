@@ -120,9 +120,14 @@ class Scenario:
       error_kind: what ``error`` means (units) in the CSV.
       evaluate: ``(scene, final_positions, history) → error``; ``history`` holds sampled ``times`` (s) and
         ``com_x`` (m) for the chain.
-      drive: optional ``(sim, t) → None`` moving grippers at simulated time ``t`` (before each step).
-      drive_end: simulated time after which ``drive`` no longer moves anything (energy checks start there);
-        the run lasts ``duration + drive_end(params)``.
+      drive: optional ``(sim, t, params) → None`` acting on the simulator at simulated time ``t``, before each
+        sample of the state (before each step until ``drive_end``), e.g. a disturbance; a gripper that follows a
+        known path is a ``gripper_path`` instead.
+      gripper_path: optional ``(scene, times, params) → path``: the grippers' positions (``(steps, G, 3)``, metres,
+        ``scene.grippers`` order) commanded before the steps that start at ``times`` (``(steps,)``, s); the runner
+        hands it to :meth:`mjcable.Simulator.step_along` until ``drive_end``, after which the grippers stay.
+      drive_end: simulated time after which ``drive`` and ``gripper_path`` no longer move anything; the run lasts
+        ``duration + drive_end(params)``.
       passive: no energy is injected (energy growth means divergence).
       setup: optional ``(sim, params) → None`` applied once after the simulator is built (e.g. an end load).
       needs_com_x: sample the centre of mass's x for ``evaluate`` (the chain's frequency).
@@ -142,6 +147,7 @@ class Scenario:
     error_kind: str
     evaluate: Optional[Callable[[Scene, np.ndarray, dict], float]] = None
     drive: Optional[Callable] = None
+    gripper_path: Optional[Callable[[Scene, np.ndarray, dict], np.ndarray]] = None
     drive_end: Callable[[dict], float] = lambda params: 0.0
     passive: bool = True
     setup: Optional[Callable] = None
@@ -341,11 +347,12 @@ def _elongation(scene: Scene, x: np.ndarray, history: dict) -> float:
     return float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)) / scene.cable.length - 1.0)
 
 
-def _yank(sim, t: float, params: dict) -> None:
-    speed = float(params["speed"])
-    start = np.asarray(sim.scene.cable.particles[sim.scene.pin_particle(0)])
-    travelled = min(max(t - YANK_SETTLE, 0.0) * speed, YANK_DISTANCE)
-    sim.move_gripper(0, start + travelled * YANK_DIRECTION)
+def _yank_path(scene: Scene, times: np.ndarray, params: dict) -> np.ndarray:
+    """The yanking gripper at ``times`` (S,): at rest for ``YANK_SETTLE``, then ``YANK_DISTANCE`` along
+    ``YANK_DIRECTION`` at ``speed`` m/s. Returns (S, 1, 3) positions in metres."""
+    start = np.asarray(scene.cable.particles[scene.pin_particle(0)])
+    travelled = np.clip((np.asarray(times) - YANK_SETTLE) * float(params["speed"]), 0.0, YANK_DISTANCE)
+    return (start + travelled[:, None] * YANK_DIRECTION)[:, None, :]
 
 
 def _load_setup(sim, params: dict) -> None:
@@ -412,7 +419,7 @@ STRESS_SCENARIOS: Dict[str, Scenario] = {
                  duration=1.0, quick_duration=1.0, error_kind="none"),
         Scenario("speed", "a gripper yanks the cable's end 0.5 m at the given speed (m/s)",
                  lambda n, p: yank_scene(n), duration=YANK_AFTER, quick_duration=YANK_AFTER,
-                 error_kind="none", drive=_yank, passive=False,
+                 error_kind="none", gripper_path=_yank_path, passive=False,
                  drive_end=lambda p: YANK_SETTLE + YANK_DISTANCE / float(p["speed"])),
         Scenario("load", "light cable hanging from one pin with an end mass of `load` times its own",
                  lambda n, p: hanging_scene(n), duration=1.0, quick_duration=1.0, error_kind="none",
