@@ -9,6 +9,7 @@ Prints a markdown table (the README's "Speed" section shows one) of:
   start (the cable falls for 0.2 s first);
 * cost against length: ``hang`` on ``xpbd`` (defaults) at 50, 400 and 1600 segments (:func:`bench_length.measure`);
 * a resting cable: ``table`` at rest against ``hang``, 200 segments, ``xpbd`` defaults (:func:`bench_skip.measure`);
+* ``mjcable bench``'s runner against ``Simulator.step(T)`` on the same case (:func:`bench_runner.measure_bench_vs_step`);
 * every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed);
 * the ``unplug`` environment on ``xpbd``: 200 control steps against a bare Simulator rebuilt from the environment's
   own, stepping the same simulated time (:func:`bench_env.bench`; the issue's bar is 1.3×);
@@ -38,6 +39,7 @@ import numpy as np
 import bench_batch  # scripts/bench_batch.py, beside this script
 import bench_env  # scripts/bench_env.py, beside this script
 import bench_length  # scripts/bench_length.py, beside this script
+import bench_runner  # scripts/bench_runner.py, beside this script
 import bench_skip  # scripts/bench_skip.py, beside this script
 import mjcable
 from mjcable import catalog
@@ -255,6 +257,10 @@ def main() -> None:
     print(f"| `table` at rest, 200 segments, xpbd (defaults): `step(1.0)` vs the same cable's `hang` `step(1.0)` "
           f"({rest['queries_per_step']:.2f} queries per step, {rest['contacts']} contacts) | "
           f"{rest['table_s'] * ms:.2f} ms | {rest['hang_s'] * ms:.2f} ms | {rest['ratio']:.2f}× |")
+    r = bench_runner.measure_bench_vs_step(model="xpbd", repeats=args.repeats)
+    print(f"| `mjcable bench`'s runner on the catenary (50 segments), xpbd (defaults): wall s per simulated s vs "
+          f"`Simulator.step(T)` of the same case | {r['bench_wall_per_sim_s']:.4f} s/s | "
+          f"{r['step_wall_per_sim_s']:.4f} s/s | {r['ratio']:.2f}× |")
     for model, sec in bench_native(args.repeats).items():
         shown = f"{sec * ms:.2f} ms" if isinstance(sec, float) else f"unavailable ({type(sec).__name__})"
         print(f"| `hang`, 50 segments, {model} (native, defaults): `step(1.0)` | {shown} | | |")
