@@ -166,7 +166,8 @@ FIELDS = (
     ("link_body", _I1, "(L,)"), ("link_site", _I1, "(L,)"), ("link_clamp", _I2, "(K', 2) [clamp row, body]"),
     ("clamp_local", _F3, "(K', 3, 2) clamp directions in the body"), ("site_xpos", _F2, "mjData.site_xpos"),
     ("xipos", _F2, "mjData.xipos"), ("xmat", _F2, "mjData.xmat"), ("xfrc_applied", _F2, "mjData.xfrc_applied"),
-    ("warning_number", types.Array(types.int32, 1, "A"), "mjData.warning.number (strided)"), ("bad", _I1, "(W,) warnings that stop"),
+    ("warning_number", types.Array(types.int32, 1, "A"), "mjData.warning.number (strided)"),
+    ("bad", _I1, "(W,) warnings that stop"),
     ("wrench_rows", _I1, "(R',) obstacle rows on dynamic bodies"), ("wrench_bodies", _I1, "(R',) their bodies"),
     ("contact_wrench", _F2, "(nbody, 6) N, N·m"),
     # the host's scratch (sized at construction)
