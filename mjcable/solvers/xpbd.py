@@ -54,4 +54,5 @@ def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
         alpha_b = 0.0
         alpha_c = 0.0
     return Rules(verlet_start=False, alpha_stretch=alpha_s, alpha_bend=alpha_b, alpha_clamp=alpha_c,
-                 k_stretch=1.0, k_bend=1.0, k_clamp=1.0, bending=bending, direct_bending=True)
+                 k_stretch=1.0, k_bend=1.0, k_clamp=1.0, bending=bending, direct_bending=True,
+                 geometric_stiffness=True)
