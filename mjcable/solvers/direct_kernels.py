@@ -242,11 +242,10 @@ def _direct_apply(S, rows, k_s, k_b, k_c):
 
 
 @_inline
-def _tension_is_stiff(S):
-    """Whether the tension of some stretch row, from the last solve's multipliers ``lam_gs`` (λ = −T h² in
-    tension), has a transverse Courant number c h / l₀ above ``_GEOMETRIC_COURANT``: (c h / l₀)² = −λ (wᵢ + wⱼ) /
-    2 l₀, c² = T / μ with the mean of the two particles' masses per length."""
-    lam, rest, w = S.lam_gs, S.rest, S.w
+def _tension_is_stiff(lam, rest, w):
+    """Whether the tension of some stretch row, from its multiplier λ (``lam`` (n,), λ = −T h² in tension), has a
+    transverse Courant number c h / l₀ above ``_GEOMETRIC_COURANT``: (c h / l₀)² = −λ (wᵢ + wⱼ) / 2 l₀, c² = T / μ
+    with the mean of the two particles' masses per length (``rest`` (n,) m, ``w`` (N,) 1/kg)."""
     limit = 2.0 * _GEOMETRIC_COURANT * _GEOMETRIC_COURANT
     for i in range(rest.shape[0]):
         if -lam[i] * (w[i] + w[i + 1]) > limit * rest[i]:
@@ -301,32 +300,42 @@ def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
 @_inline
 def _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
     """One direct solve at the current x over the chain's rows, or, where the model's multipliers are forces
-    (``par.geometric``) and the tension is stiff (:func:`_tension_is_stiff`), over the rows with the stretch rows'
-    geometric stiffness (the ``gs_`` rows, see :func:`_direct_residuals`) from the last solve's multipliers: in a
-    substep's first solve the previous substep's (λ is reset every substep, and would give M̃ = M), in a later one
-    (the safeguard's, or a second iteration) this substep's so far, which makes it Newton's step. Returns ρ before
-    it."""
+    (``par.geometric``) and the last solve found the tension stiff (``par.gs_stiff``, :func:`_tension_is_stiff`),
+    :func:`_direct_once_geometric`. Returns ρ before it."""
     P = S.par[0]
-    stiff = P.geometric and P.gs_valid and _tension_is_stiff(S)
-    if stiff:
-        rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs)
-        bandwidth = P.gs_bandwidth
+    if P.gs_stiff:
+        rho = _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t)
     else:
         rows = (S.row_kind, S.row_idx, S.row_p, S.prow, S.pslot, S.band, S.grad, S.rhs)
-        bandwidth = P.bandwidth
+        rho = _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t)
+        _schur_assemble(S, rows)
+        banded_ldlt_solve(S.band, S.rhs, P.bandwidth)
+        _direct_apply(S, rows, k_s, k_b, k_c)
+    if P.geometric:  # the next solve's rows (in the next substep from these multipliers, reset by then)
+        P.gs_stiff = _tension_is_stiff(S.lam_s, S.rest, S.w)
+        if P.gs_stiff:
+            S.lam_gs[:] = S.lam_s
+    P.direct_solves += 1
+    return rho
+
+
+@_jit
+def _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t):
+    """One direct solve over the rows with the stretch rows' geometric stiffness (the ``gs_`` rows, see
+    :func:`_direct_residuals`) from the last solve's multipliers (``lam_gs``), followed by a chord step
+    (:func:`_chord_rhs`); XPBD's (k = 1). In a substep's first solve the multipliers are the previous substep's (λ
+    is reset every substep, and would give M̃ = M), in a later one (the safeguard's, or a second iteration) this
+    substep's so far, which makes it Newton's step. Returns ρ before it."""
+    rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs)
+    bandwidth = S.par[0].gs_bandwidth
     rho = _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t)
     _schur_assemble(S, rows)
-    _banded_ldlt_factor(rows[5], bandwidth)
-    _banded_ldlt_substitute(rows[5], rows[7], bandwidth)
-    _direct_apply(S, rows, k_s, k_b, k_c)
-    if stiff:  # a chord step: the distance rows' second-order residual, with the same factors
-        _chord_rhs(S, rows, alpha_s_t, alpha_b_t)
-        _banded_ldlt_substitute(rows[5], rows[7], bandwidth)
-        _direct_apply(S, rows, k_s, k_b, k_c)
-    if P.geometric:
-        S.lam_gs[:] = S.lam_s
-        P.gs_valid = True
-    P.direct_solves += 1
+    _banded_ldlt_factor(S.gs_band, bandwidth)
+    _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
+    _direct_apply(S, rows, 1.0, 1.0, 1.0)
+    _chord_rhs(S, rows, alpha_s_t, alpha_b_t)  # a chord step: the distance rows' second-order residual
+    _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
+    _direct_apply(S, rows, 1.0, 1.0, 1.0)
     return rho
 
 

@@ -90,9 +90,9 @@ PARAMS = np.dtype([
     ("n_con", "i8"), ("n_self", "i8"), ("queries", "i8"), ("margin", "f8"), ("warning", "i8"), ("check", "i8"),
     ("check_value", "f8"), ("time", "f8"),
     # the direct order's geometric stiffness (direct_kernels: the stretch rows' transverse rows): whether the model's
-    # multipliers carry it (XPBD), the half-bandwidth of the rows with it, whether lam_gs holds a solve's multipliers
-    # (False from the start and after a reset), and a read-out: the direct solves taken since the start
-    ("geometric", "?"), ("gs_bandwidth", "i8"), ("gs_valid", "?"), ("direct_solves", "i8"),
+    # multipliers carry it (XPBD), the half-bandwidth of the rows with it, whether the last solve found the tension
+    # stiff (its multipliers then in lam_gs; False from the start and after a reset), and a read-out: the direct solves taken since the start
+    ("geometric", "?"), ("gs_bandwidth", "i8"), ("gs_stiff", "?"), ("direct_solves", "i8"),
 ])
 
 

@@ -174,7 +174,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             mu_self=cable.friction, iterations=settings.iterations, substeps=settings.substeps,
             order=ORDER_CODES[settings.order], bending=BENDING_CODES[rules.bending], sqrt_approx=rules.sqrt_approx,
             direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
-            gs_bandwidth=rows.pop("gs_bandwidth"), gs_valid=False, direct_solves=0,
+            gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, direct_solves=0,
             max_distance=math.inf, max_speed=math.inf, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
             query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1).items():
