@@ -28,10 +28,10 @@ _DIRECT_CONTRACTION = 0.5
 _DIRECT_RESIDUAL_FLOOR = 1e-4
 _DIRECT_MAX_SOLVES = 8
 # The tension's transverse Courant number c h / l₀ (c = √(T / μ) the speed of transverse waves along the chain, h the
-# substep, l₀ the segment length) from which a direct solve includes the stretch rows' geometric stiffness (the KKT
-# rows, see _direct_residuals). Without it the tension's sideways pull is explicit in position: stable only below about 1
-# (beyond, one solve per substep no longer converges and the chain runs away), and accurate well below it, where the
-# Schur solve (tridiagonal for a stretch chain) costs a fraction of the KKT solve.
+# substep, l₀ the segment length) from which a direct solve includes the stretch rows' geometric stiffness (transverse
+# rows, see _direct_residuals). Without it the tension's sideways pull is explicit in position: stable only below
+# about 1 (beyond, one solve per substep no longer converges and the chain runs away), and accurate well below it,
+# where the chain's own rows (tridiagonal for a stretch chain) cost a fraction of the rows with it.
 _GEOMETRIC_COURANT = 0.2
 
 
@@ -277,9 +277,13 @@ def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
     met exactly (curvature and clamps are linear in x; a transverse row's C⊥ is its linearisation) and for a hard
     row on held particles only. A distance row's residual after a solve is second order: a segment whose ends moved
     across it by Δd⊥ stretches by |Δd⊥|² / 2|d| (0.3 µm, a strain of 4e-6, in the hang's 1600 segments at 0.5 ms
-    substeps); the chord step leaves a fraction of it of the order of the segments' turn within the substep."""
+    substeps); the chord step leaves a fraction of it of the order of the segments' turn within the substep. Returns
+    ρ = max |C + α̃ λ| / rest over the distance rows: a chord step is taken only within Newton's region (ρ at most
+    ``_DIRECT_RESIDUAL_FLOOR``), where it converges; beyond it (a yank) the safeguard of :func:`direct_solve`
+    decides."""
     x, w = S.x, S.w
     row_kind, row_idx, row_p, _, _, _, _, rhs = rows
+    rho = 0.0
     for r in range(rhs.shape[0]):
         kind = row_kind[r]
         rhs[r] = 0.0
@@ -293,8 +297,11 @@ def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
         idx = row_idx[r]
         if kind == ROW_STRETCH:
             rhs[r] = -(length - S.rest[idx]) - alpha_s_t * S.lam_s[idx]
+            rho = max(rho, abs(rhs[r]) / S.rest[idx])
         else:
             rhs[r] = -(length - S.rest_d[idx]) - alpha_b_t * S.lam_d[idx]
+            rho = max(rho, abs(rhs[r]) / S.rest_d[idx])
+    return rho
 
 
 @_inline
@@ -333,9 +340,9 @@ def _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t):
     _banded_ldlt_factor(S.gs_band, bandwidth)
     _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
     _direct_apply(S, rows, 1.0, 1.0, 1.0)
-    _chord_rhs(S, rows, alpha_s_t, alpha_b_t)  # a chord step: the distance rows' second-order residual
-    _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
-    _direct_apply(S, rows, 1.0, 1.0, 1.0)
+    if _chord_rhs(S, rows, alpha_s_t, alpha_b_t) <= _DIRECT_RESIDUAL_FLOOR:  # a chord step (see _chord_rhs)
+        _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
+        _direct_apply(S, rows, 1.0, 1.0, 1.0)
     return rho
 
 
@@ -376,6 +383,9 @@ def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
     system (J W Jᵀ + α̃) Δλ = −C − α̃ λ ([M16]'s linearised system with its g term dropped, as there) is banded
     for a chain and is solved exactly by :func:`banded_ldlt_solve` ([D18]); Δx = W Jᵀ Δλ. With stretch rows only
     it is tridiagonal. A single iteration then gives XPBD's stated stiffness; PBD and Jakobsen scale Δλ by their k.
+    Where XPBD's tension is stiff (transverse waves faster than a fifth of a segment per substep), the system also
+    carries the stretch rows' geometric stiffness, which makes the tension's sideways pull implicit
+    (:func:`_direct_once`).
 
     A safeguard for large rotations within a substep. The curvature and clamp rows are linear in x, so the solve
     meets them exactly; the distance rows (stretch, distance bending; C = |d| − rest) are not: a segment whose end
