@@ -99,3 +99,40 @@ def test_direct_catenary_within_a_millimetre():
     x = sim.positions
     curve = reference.catenary(x[0], x[-1], sim.scene.cable.length)
     assert np.max(reference.distance_to_curve(x, curve)) < 1e-3
+
+
+# -- fine segments: the tension's transverse waves -------------------------------------------------------------
+
+FINE_SEGMENTS = 1600
+# A hanging chain's tension T carries transverse waves at c = √(T / μ) (μ: mass per length; about 2.4 m/s at the top
+# of the hang scene, from the catenary). A solve that takes the segment directions from the predicted positions
+# ([M16] drops the geometric stiffness λ ∇²C) makes the transverse restoring force explicit: stable only for a
+# Courant number c h / l₀ below about 1 (h the substep). At 1600 segments (l₀ = 0.625 mm) that is 1.95 with the
+# default 4 substeps of 2 ms and 0.49 with 16; the direct order includes the geometric stiffness there.
+INEXTENSIBLE_STRAIN = 1e-6  # as test_solvers' inextensible hang: a converged α = 0 chain keeps its rest length
+SETTLE = 0.3  # s: the scene starts off its catenary (spline points), so its waves run through the whole chain
+
+
+def _fine_hang(substeps: int) -> tuple:
+    """(largest strain, direct solves per substep) of the 1600-segment hang after SETTLE seconds."""
+    with pytest.warns(UserWarning, match="larger than a segment"):  # the default radius: no contacts here
+        scene = mjcable.scenes.get("hang", n_segments=FINE_SEGMENTS)
+    sim = mjcable.Simulator(scene, "xpbd", substeps=substeps)
+    sim.step(SETTLE)
+    solves = sim._backend.arrays.par[0]["direct_solves"] / (sim.steps * substeps)
+    return float(np.max(_strain(sim.positions, scene.cable.segment_length))), solves
+
+
+def test_direct_order_keeps_a_fine_chain_inextensible_below_the_transverse_courant_limit():
+    """1600 segments at 16 substeps (c h / l₀ ≈ 0.5): one solve per substep converges as at 50 segments."""
+    strain, solves = _fine_hang(16)
+    assert strain <= INEXTENSIBLE_STRAIN
+    assert solves == 1.0
+
+
+def test_direct_order_keeps_a_fine_chain_inextensible_at_default_substeps():
+    """1600 segments at the default 4 substeps (c h / l₀ ≈ 2): with the geometric stiffness one solve per substep
+    is stable and converged, as below the limit."""
+    strain, solves = _fine_hang(4)
+    assert strain <= INEXTENSIBLE_STRAIN
+    assert solves == 1.0

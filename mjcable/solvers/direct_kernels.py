@@ -10,7 +10,9 @@ import math
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.constraint_kernels import _bend_clamp_sweeps, stretch_sweep
 from mjcable.solvers.kernels_layout import (_TINY_LENGTH, BEND_DISTANCE, BEND_NONE, ROW_CURVATURE, ROW_DISTANCE,
-                                            ROW_STRETCH)
+                                            ROW_STRETCH, ROW_TRANSVERSE)
+
+# [T15] M. Tournier, M. Nesme, B. Gilles, F. Faure, "Stable Constrained Dynamics", ACM TOG 34(4), 2015.
 
 # Relative compliance added to every row of the direct solve: it keeps hard, redundant rows (e.g. inextensible
 # stretch with hard curvature bending: more rows than degrees of freedom) solvable and is far below any physical one.
@@ -25,6 +27,12 @@ _DIRECT_REGULARIZATION = 1e-10
 _DIRECT_CONTRACTION = 0.5
 _DIRECT_RESIDUAL_FLOOR = 1e-4
 _DIRECT_MAX_SOLVES = 8
+# The tension's transverse Courant number c h / l₀ (c = √(T / μ) the speed of transverse waves along the chain, h the
+# substep, l₀ the segment length) from which a direct solve includes the stretch rows' geometric stiffness (transverse
+# rows, see _direct_residuals). Without it the tension's sideways pull is explicit in position: stable only below
+# about 1 (beyond, one solve per substep no longer converges and the chain runs away), and accurate well below it,
+# where the chain's own rows (tridiagonal for a stretch chain) cost a fraction of the rows with it.
+_GEOMETRIC_COURANT = 0.2
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -36,8 +44,15 @@ def banded_ldlt_solve(band, rhs, bw):
     """Solve A y = rhs in place for a symmetric positive definite A in lower band storage band[i, i − j] = A[i, j]
     (half-bandwidth ``bw``), by LDLᵀ without pivoting, O(rows · bw²); ``band`` is overwritten by the factors.
     For bw = 1 (a chain of stretch constraints) this is the Thomas algorithm."""
-    nrow = rhs.shape[0]
-    for j in range(nrow):  # band[j, 0] ← d_j, band[i, i − j] ← L_ij
+    _banded_ldlt_factor(band, bw)
+    _banded_ldlt_substitute(band, rhs, bw)
+
+
+@_inline
+def _banded_ldlt_factor(band, bw):
+    """The LDLᵀ factors of :func:`banded_ldlt_solve`, in place: band[j, 0] ← d_j, band[i, i − j] ← L_ij."""
+    nrow = band.shape[0]
+    for j in range(nrow):
         d = band[j, 0]
         for kk in range(max(0, j - bw), j):
             ljk = band[j, j - kk]
@@ -48,6 +63,12 @@ def banded_ldlt_solve(band, rhs, bw):
             for kk in range(max(0, i - bw), j):
                 acc -= band[i, i - kk] * band[j, j - kk] * band[kk, 0]
             band[i, i - j] = acc / d
+
+
+@_inline
+def _banded_ldlt_substitute(band, rhs, bw):
+    """y = L⁻ᵀ D⁻¹ L⁻¹ rhs in place, from the factors of :func:`_banded_ldlt_factor`."""
+    nrow = rhs.shape[0]
     for i in range(nrow):  # L z = rhs
         acc = rhs[i]
         for kk in range(max(0, i - bw), i):
@@ -63,12 +84,22 @@ def banded_ldlt_solve(band, rhs, bw):
 
 
 @_inline
-def _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t):
-    """Linearise every row at the current x: ∇C into ``grad``, −C − α̃ λ into ``rhs`` and J W Jᵀ + α̃ into
-    ``band`` ([M16] Eq. 18 for all rows at once). Returns ρ = max |C + α̃ λ| / rest over the distance rows."""
+def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
+    """Linearise every row of ``rows`` (``row_kind``, ``row_idx``, ``row_p``, ``prow``, ``pslot``, ``band``,
+    ``grad``, ``rhs`` of the state, or their ``gs_`` twins) at the current x: ∇C into ``grad``, −C − α̃ λ into
+    ``rhs`` and α̃ into ``band[:, 0]`` (the rest of ``band`` zeroed). Returns ρ = max |C + α̃ λ| / rest over the
+    distance rows.
+
+    A transverse row (ROW_TRANSVERSE, two per stretch row i of tension T = −λ / h² in ``lam_gs``) is the stretch
+    row's geometric stiffness −λ ∇²C = −λ (I − n nᵀ) / |d| (on the blocks [[1, −1], [−1, 1]]) written as a compliant
+    row: C⊥ = t · (xᵢ − xⱼ) with t ⊥ n (the two rows' t and n orthonormal), α̃⊥ = |d| / −λ, C⊥ = 0 where it is
+    linearised. Its Schur complement (eliminating its multiplier) adds t tᵀ / α̃⊥ to the mass matrix: with both rows,
+    M̃ = M − λ ∇²C, the implicit step's Hessian ([T15] Eq. 14, [M16] Eq. 10 without XPBD's approximation M̃ ≈ M),
+    while the system keeps the Schur form (J W Jᵀ + α̃) Δλ = rhs over the extended rows, banded. A compressed row
+    (λ ≥ 0) has none (its rows are left out: M̃ stays positive definite)."""
     x, w = S.x, S.w
-    band, rhs, grad, row_p = S.band, S.rhs, S.grad, S.row_p
-    row_kind, row_idx = S.row_kind, S.row_idx
+    row_kind, row_idx, row_p, _, _, band, grad, rhs = rows
+    lam_gs = S.lam_gs
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
     rest, rest_d = S.rest, S.rest_d
     clamp_dir, clamp_pin, pin_active = S.clamp_dir, S.clamp_pin, S.pin_active
@@ -101,6 +132,18 @@ def _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t):
             else:
                 cval = 0.0
             rho = max(rho, abs(cval + at * lam) / rl)
+        elif kind == ROW_TRANSVERSE:
+            seg, k = idx // 2, idx % 2
+            i, j = row_p[r, 0], row_p[r, 1]
+            dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if lam_gs[seg] < 0.0 and length > _TINY_LENGTH:
+                at = length / -lam_gs[seg]
+                tx, ty, tz = _perpendicular(dx / length, dy / length, dz / length, k)
+                grad[r, 0, 0], grad[r, 0, 1], grad[r, 0, 2] = tx, ty, tz
+                grad[r, 1, 0], grad[r, 1, 1], grad[r, 1, 2] = -tx, -ty, -tz
+            else:
+                at = 0.0  # no stiffness: the row is left out (Δλ = 0, see _schur_assemble)
         elif kind == ROW_CURVATURE:
             b, comp = idx // 3, idx % 3
             i = b + 1
@@ -123,7 +166,15 @@ def _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t):
                 at = 0.0
         band[r, 0] = at
         rhs[r] = -cval - at * lam
-    prow, pslot = S.prow, S.pslot
+    return rho
+
+
+@_inline
+def _schur_assemble(S, rows):
+    """J W Jᵀ + α̃ into ``rows``' band ([M16] Eq. 18 for all rows at once), after :func:`_direct_residuals`."""
+    x, w = S.x, S.w
+    _, _, _, prow, pslot, band, grad, rhs = rows
+    nrow = rhs.shape[0]
     for p in range(x.shape[0]):  # J W Jᵀ, particle by particle
         wp = w[p]
         if wp == 0.0:
@@ -148,14 +199,15 @@ def _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t):
             rhs[r] = 0.0
         else:
             band[r, 0] *= 1.0 + _DIRECT_REGULARIZATION
-    return rho
 
 
 @_inline
-def _direct_apply(S, k_s, k_b, k_c):
-    """λ += k Δλ and x += W Jᵀ k Δλ ([M16] Eq. 17) for the Δλ that :func:`banded_ldlt_solve` left in ``rhs``."""
-    x, w, react, grad, row_p, rhs = S.x, S.w, S.react, S.grad, S.row_p, S.rhs
-    row_kind, row_idx = S.row_kind, S.row_idx
+def _direct_apply(S, rows, k_s, k_b, k_c):
+    """λ += k Δλ and x += W Jᵀ k Δλ ([M16] Eq. 17) for the Δλ that :func:`banded_ldlt_solve` left in ``rows``'
+    ``rhs``. A transverse row's Δλ moves the particles (and adds to a held one's reaction: its share of the
+    geometric stiffness, the turn of the stretch row's force over the step) but is no multiplier of its own."""
+    x, w, react = S.x, S.w, S.react
+    row_kind, row_idx, row_p, _, _, _, grad, rhs = rows
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
     for r in range(rhs.shape[0]):
         kind = row_kind[r]
@@ -169,6 +221,8 @@ def _direct_apply(S, k_s, k_b, k_c):
         elif kind == ROW_CURVATURE:
             dlam = k_b * rhs[r]
             lam_b[idx // 3, idx % 3] += dlam
+        elif kind == ROW_TRANSVERSE:
+            dlam = rhs[r]
         else:
             dlam = k_c * rhs[r]
             lam_c[idx // 2, idx % 2] += dlam
@@ -185,6 +239,111 @@ def _direct_apply(S, k_s, k_b, k_c):
             else:
                 for comp in range(3):
                     react[p, comp] += grad[r, a, comp] * dlam
+
+
+@_inline
+def _tension_is_stiff(lam, rest, w):
+    """Whether the tension of some stretch row, from its multiplier λ (``lam`` (n,), λ = −T h² in tension), has a
+    transverse Courant number c h / l₀ above ``_GEOMETRIC_COURANT``: (c h / l₀)² = −λ (wᵢ + wⱼ) / 2 l₀, c² = T / μ
+    with the mean of the two particles' masses per length (``rest`` (n,) m, ``w`` (N,) 1/kg)."""
+    limit = 2.0 * _GEOMETRIC_COURANT * _GEOMETRIC_COURANT
+    for i in range(rest.shape[0]):
+        if -lam[i] * (w[i] + w[i + 1]) > limit * rest[i]:
+            return True
+    return False
+
+
+@_inline
+def _perpendicular(nx, ny, nz, k):
+    """The k-th (0 or 1) of two unit vectors perpendicular to the unit vector n and to each other."""
+    ax, ay, az = abs(nx), abs(ny), abs(nz)
+    if ax <= ay and ax <= az:  # t₀ = n × e, e the axis least along n
+        tx, ty, tz = 0.0, nz, -ny
+    elif ay <= az:
+        tx, ty, tz = -nz, 0.0, nx
+    else:
+        tx, ty, tz = ny, -nx, 0.0
+    norm = math.sqrt(tx * tx + ty * ty + tz * tz)
+    tx, ty, tz = tx / norm, ty / norm, tz / norm
+    if k == 0:
+        return tx, ty, tz
+    return ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+
+
+@_inline
+def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
+    """The right-hand side of a chord step (a Newton step with the last solve's factors) after a solve over
+    ``rows``: −C − α̃ λ of the distance rows (stretch, distance bending) at the new x, 0 for the rows that the solve
+    met exactly (curvature and clamps are linear in x; a transverse row's C⊥ is its linearisation) and for a hard
+    row on held particles only. A distance row's residual after a solve is second order: a segment whose ends moved
+    across it by Δd⊥ stretches by |Δd⊥|² / 2|d| (0.3 µm, a strain of 4e-6, in the hang's 1600 segments at 0.5 ms
+    substeps); the chord step leaves a fraction of it of the order of the segments' turn within the substep. Returns
+    ρ = max |C + α̃ λ| / rest over the distance rows: a chord step is taken only within Newton's region (ρ at most
+    ``_DIRECT_RESIDUAL_FLOOR``), where it converges; beyond it (a yank) the safeguard of :func:`direct_solve`
+    decides."""
+    x, w = S.x, S.w
+    row_kind, row_idx, row_p, _, _, _, _, rhs = rows
+    rho = 0.0
+    for r in range(rhs.shape[0]):
+        kind = row_kind[r]
+        rhs[r] = 0.0
+        if kind != ROW_STRETCH and kind != ROW_DISTANCE:
+            continue
+        i, j = row_p[r, 0], row_p[r, 1]
+        if w[i] == 0.0 and w[j] == 0.0:
+            continue
+        dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        idx = row_idx[r]
+        if kind == ROW_STRETCH:
+            rhs[r] = -(length - S.rest[idx]) - alpha_s_t * S.lam_s[idx]
+            rho = max(rho, abs(rhs[r]) / S.rest[idx])
+        else:
+            rhs[r] = -(length - S.rest_d[idx]) - alpha_b_t * S.lam_d[idx]
+            rho = max(rho, abs(rhs[r]) / S.rest_d[idx])
+    return rho
+
+
+@_inline
+def _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
+    """One direct solve at the current x over the chain's rows, or, where the model's multipliers are forces
+    (``par.geometric``) and the last solve found the tension stiff (``par.gs_stiff``, :func:`_tension_is_stiff`),
+    :func:`_direct_once_geometric`. Returns ρ before it."""
+    P = S.par[0]
+    if P.gs_stiff:
+        rho = _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t)
+    else:
+        rows = (S.row_kind, S.row_idx, S.row_p, S.prow, S.pslot, S.band, S.grad, S.rhs)
+        rho = _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t)
+        _schur_assemble(S, rows)
+        banded_ldlt_solve(S.band, S.rhs, P.bandwidth)
+        _direct_apply(S, rows, k_s, k_b, k_c)
+    if P.geometric:  # the next solve's rows (in the next substep from these multipliers, reset by then)
+        P.gs_stiff = _tension_is_stiff(S.lam_s, S.rest, S.w)
+        if P.gs_stiff:
+            S.lam_gs[:] = S.lam_s
+    P.direct_solves += 1
+    return rho
+
+
+@_jit
+def _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t):
+    """One direct solve over the rows with the stretch rows' geometric stiffness (the ``gs_`` rows, see
+    :func:`_direct_residuals`) from the last solve's multipliers (``lam_gs``), followed by a chord step
+    (:func:`_chord_rhs`); XPBD's (k = 1). In a substep's first solve the multipliers are the previous substep's (λ
+    is reset every substep, and would give M̃ = M), in a later one (the safeguard's, or a second iteration) this
+    substep's so far, which makes it Newton's step. Returns ρ before it."""
+    rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs)
+    bandwidth = S.par[0].gs_bandwidth
+    rho = _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t)
+    _schur_assemble(S, rows)
+    _banded_ldlt_factor(S.gs_band, bandwidth)
+    _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
+    _direct_apply(S, rows, 1.0, 1.0, 1.0)
+    if _chord_rhs(S, rows, alpha_s_t, alpha_b_t) <= _DIRECT_RESIDUAL_FLOOR:  # a chord step (see _chord_rhs)
+        _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
+        _direct_apply(S, rows, 1.0, 1.0, 1.0)
+    return rho
 
 
 @_inline
@@ -224,6 +383,9 @@ def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
     system (J W Jᵀ + α̃) Δλ = −C − α̃ λ ([M16]'s linearised system with its g term dropped, as there) is banded
     for a chain and is solved exactly by :func:`banded_ldlt_solve` ([D18]); Δx = W Jᵀ Δλ. With stretch rows only
     it is tridiagonal. A single iteration then gives XPBD's stated stiffness; PBD and Jakobsen scale Δλ by their k.
+    Where XPBD's tension is stiff (transverse waves faster than a fifth of a segment per substep), the system also
+    carries the stretch rows' geometric stiffness, which makes the tension's sideways pull implicit
+    (:func:`_direct_once`).
 
     A safeguard for large rotations within a substep. The curvature and clamp rows are linear in x, so the solve
     meets them exactly; the distance rows (stretch, distance bending; C = |d| − rest) are not: a segment whose end
@@ -247,9 +409,7 @@ def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
       segment within a substep), one nonlinear Gauss-Seidel sweep of the same rows follows ([M16] Eq. 18 per
       constraint, as ``order="gauss-seidel"``): each projection solves its own constraint exactly, without overshoot.
     """
-    rho0 = _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t)
-    banded_ldlt_solve(S.band, S.rhs, S.par[0].bandwidth)
-    _direct_apply(S, k_s, k_b, k_c)
+    rho0 = _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c)
     tol = max(_DIRECT_RESIDUAL_FLOOR, (1.0 - k_s * (1.0 - _DIRECT_CONTRACTION)) * rho0)
     if not _direct_within(S, alpha_s_t, alpha_b_t, tol):
         _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0, tol)
@@ -261,9 +421,7 @@ def _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0,
     until every relative residual is within ``tol``, at most ``_DIRECT_MAX_SOLVES`` solves in all; then, if some
     is still above ρ₀, one Gauss-Seidel sweep of the same rows ([M16] Eq. 18 per constraint)."""
     for _ in range(_DIRECT_MAX_SOLVES - 1):
-        _direct_linearise(S, alpha_s_t, alpha_b_t, alpha_c_t)
-        banded_ldlt_solve(S.band, S.rhs, S.par[0].bandwidth)
-        _direct_apply(S, k_s, k_b, k_c)
+        _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c)
         if _direct_within(S, alpha_s_t, alpha_b_t, tol):
             return
     if not _direct_within(S, alpha_s_t, alpha_b_t, rho0):  # Newton diverging: project the rows one by one

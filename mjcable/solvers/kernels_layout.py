@@ -30,7 +30,7 @@ __all__ = ["SolverState", "SolverStateType", "STATE_TYPE", "PARAMS", "FIELDS", "
 
 ORDER_GAUSS_SEIDEL, ORDER_JACOBI, ORDER_DIRECT = 0, 1, 2
 BEND_NONE, BEND_CURVATURE, BEND_DISTANCE = 0, 1, 2
-ROW_STRETCH, ROW_CURVATURE, ROW_DISTANCE, ROW_CLAMP = 0, 1, 2, 3
+ROW_STRETCH, ROW_CURVATURE, ROW_DISTANCE, ROW_CLAMP, ROW_TRANSVERSE = 0, 1, 2, 3, 4
 # How a step's contacts are queried (PARAMS.query): none (no obstacle), by the compiled loop through MuJoCo's C API,
 # or by Python through the bindings (the C API's layout check failed): the loop then returns before such a step.
 QUERY_NONE, QUERY_COMPILED, QUERY_PYTHON = 0, 1, 2
@@ -88,6 +88,10 @@ PARAMS = np.dtype([
     # simulated time (s)
     ("n_con", "i8"), ("n_self", "i8"), ("queries", "i8"), ("margin", "f8"), ("warning", "i8"), ("check", "i8"),
     ("check_value", "f8"), ("time", "f8"),
+    # the direct order's geometric stiffness (direct_kernels: the stretch rows' transverse rows): whether the model's
+    # multipliers carry it (XPBD), the half-bandwidth of the rows with it, whether the last solve found the tension
+    # stiff (its multipliers then in lam_gs; False from the start and after a reset), and a read-out: the direct solves taken since the start
+    ("geometric", "?"), ("gs_bandwidth", "i8"), ("gs_stiff", "?"), ("direct_solves", "i8"),
 ])
 
 
@@ -176,6 +180,13 @@ FIELDS = (
     ("arm", _F2, "(L, 3)"), ("free", _F2, "(L, 3)"), ("free_w", _F1, "(L,)"), ("force", _F2, "(L, 3)"),
     ("applied", _F2, "(L, 6)"),
     ("par", _a(numba.from_dtype(PARAMS), 1), "(1,) PARAMS"),
+    # the direct order's rows with the geometric stiffness: the rows above and two transverse rows per stretch row
+    # (R' rows, ROW_TRANSVERSE), and the stretch multipliers it is taken from
+    ("gs_row_kind", _I1, "(R',) ROW_*"), ("gs_row_idx", _I1, "(R',) constraint index"),
+    ("gs_row_p", _I2, "(R', 3) particles"), ("gs_prow", _I2, "(N, W') rows touching a particle"),
+    ("gs_pslot", _I2, "(N, W') the particle's slot in them"), ("gs_band", _F2, "(R', bw' + 1) lower band"),
+    ("gs_grad", _F3, "(R', 3, 3) row gradients"), ("gs_rhs", _F1, "(R',)"),
+    ("lam_gs", _F1, "(n,) stretch multipliers of the last direct solve"),
 )
 
 
@@ -296,6 +307,12 @@ def _scratch_forces(S, force, applied):
 
 
 @_jit
+def _geometric(S, gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot, gs_band, gs_grad, gs_rhs, lam_gs):
+    S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot = gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot
+    S.gs_band, S.gs_grad, S.gs_rhs, S.lam_gs = gs_band, gs_grad, gs_rhs, lam_gs
+
+
+@_jit
 def _new():
     return structref.new(STATE_TYPE)
 
@@ -322,6 +339,8 @@ _PARTS = (
               "contact_wrench")),
     (_scratch, ("saved", "jacp", "jn", "solved", "start_from", "start_to", "target", "p0", "arm", "free", "free_w")),
     (_scratch_forces, ("force", "applied")),
+    (_geometric, ("gs_row_kind", "gs_row_idx", "gs_row_p", "gs_prow", "gs_pslot", "gs_band", "gs_grad", "gs_rhs",
+                  "lam_gs")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

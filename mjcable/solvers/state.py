@@ -46,6 +46,9 @@ class Rules:
       direct_bending: with ``order="direct"``, solve bending and clamps in the banded system too (XPBD, whose
         compliances make it well posed); otherwise only the stretch chain, with bending and clamps projected
         sequentially after it (PBD and Jakobsen: hard rows scaled by a stiffness do not form a solvable system).
+      geometric_stiffness: with ``order="direct"``, the stretch rows' geometric stiffness λ ∇²C where the tension
+        needs it (a KKT solve in positions and multipliers, :mod:`mjcable.solvers.direct_kernels`): for multipliers
+        that are forces (XPBD, k = 1).
     """
 
     verlet_start: bool
@@ -58,6 +61,7 @@ class Rules:
     bending: str
     sqrt_approx: bool = False
     direct_bending: bool = False
+    geometric_stiffness: bool = False
 
 
 def _perpendiculars(axis: np.ndarray) -> np.ndarray:
@@ -68,11 +72,15 @@ def _perpendiculars(axis: np.ndarray) -> np.ndarray:
     return np.stack([d1, np.cross(axis, d1)])
 
 
-def _direct_rows(n_particles: int, bending: str, clamp_pq: np.ndarray) -> dict:
+def _direct_rows(n_particles: int, bending: str, clamp_pq: np.ndarray, transverse: bool = False) -> dict:
     """The banded system's rows, ordered by their first particle, with per-particle row lists and the
-    half-bandwidth."""
+    half-bandwidth; with ``transverse``, each stretch row followed by its two transverse rows (the geometric
+    stiffness, :mod:`mjcable.solvers.direct_kernels`)."""
     n = n_particles - 1
     rows = [(i, layout.ROW_STRETCH, i, (i, i + 1)) for i in range(n)]
+    if transverse:
+        rows = [row for i in range(n) for row in
+                [rows[i]] + [(i, layout.ROW_TRANSVERSE, 2 * i + k, (i, i + 1)) for k in range(2)]]
     if bending == "curvature":
         rows += [(b, layout.ROW_CURVATURE, 3 * b + comp, (b, b + 1, b + 2)) for b in range(n - 1) for comp in range(3)]
     elif bending == "distance":
@@ -159,6 +167,13 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         rows = _direct_rows(n_particles, "none", np.zeros((0, 2), dtype=np.int64))
     else:
         rows = _direct_rows(2, "none", np.zeros((0, 2), dtype=np.int64))  # unused placeholder of the right types
+    geometric = settings.order == "direct" and rules.geometric_stiffness
+    if geometric:  # the same rows with the stretch rows' transverse rows
+        gs = _direct_rows(n_particles, rules.bending if rules.direct_bending else "none",
+                          clamp_pq if rules.direct_bending else np.zeros((0, 2), dtype=np.int64), transverse=True)
+    else:
+        gs = _direct_rows(2, "none", np.zeros((0, 2), dtype=np.int64))  # unused placeholder of the right types
+    rows.update({f"gs_{name}": value for name, value in gs.items()})
     par = np.zeros(1, dtype=layout.PARAMS)
     P = par[0]
     gravity = np.asarray(scene.gravity, dtype=np.float64)
@@ -168,7 +183,8 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             k_b=rules.k_bend, k_c=rules.k_clamp, inv_l0sq=1.0 / l0**2, omega=settings.omega, radius=cable.radius,
             mu_self=cable.friction, iterations=settings.iterations, substeps=settings.substeps,
             order=ORDER_CODES[settings.order], bending=BENDING_CODES[rules.bending], sqrt_approx=rules.sqrt_approx,
-            direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt,
+            direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
+            gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, direct_solves=0,
             max_distance=math.inf, max_speed=math.inf, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
             query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1).items():
@@ -177,7 +193,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     a = StateArrays(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
         count=np.zeros(n_particles), prev=x.copy(), query_x=x.copy(),
-        rest=np.full(n, l0), lam_s=np.zeros(n),
+        rest=np.full(n, l0), lam_s=np.zeros(n), lam_gs=np.zeros(n),
         rest_d=np.full(max(n - 1, 0), 2.0 * l0), lam_d=np.zeros(max(n - 1, 0)), lam_b=np.zeros((max(n - 1, 0), 3)),
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
         lam_c=np.zeros((len(clamps), 2)),
