@@ -113,10 +113,10 @@ INEXTENSIBLE_STRAIN = 1e-6  # as test_solvers' inextensible hang: a converged α
 SETTLE = 0.3  # s: the scene starts off its catenary (spline points), so its waves run through the whole chain
 
 
-def _fine_hang(substeps: int) -> tuple:
-    """(largest strain, direct solves per substep) of the 1600-segment hang after SETTLE seconds."""
+def _fine_hang(substeps: int, segments: int = FINE_SEGMENTS) -> tuple:
+    """(largest strain, direct solves per substep) of the hang with ``segments`` segments after SETTLE seconds."""
     with pytest.warns(UserWarning, match="larger than a segment"):  # the default radius: no contacts here
-        scene = mjcable.scenes.get("hang", n_segments=FINE_SEGMENTS)
+        scene = mjcable.scenes.get("hang", n_segments=segments)
     sim = mjcable.Simulator(scene, "xpbd", substeps=substeps)
     sim.step(SETTLE)
     solves = sim._backend.arrays.par[0]["direct_solves"] / (sim.steps * substeps)
@@ -136,3 +136,10 @@ def test_direct_order_keeps_a_fine_chain_inextensible_at_default_substeps():
     strain, solves = _fine_hang(4)
     assert strain <= INEXTENSIBLE_STRAIN
     assert solves == 1.0
+
+
+def test_direct_order_keeps_a_chain_inextensible_where_it_switches_to_the_geometric_stiffness():
+    """600 segments at the default 4 substeps (c h / l₀ ≈ 0.73 at the top): the solve without the geometric
+    stiffness leaves 1e-4 there; the direct order must not."""
+    strain, _ = _fine_hang(4, segments=600)
+    assert strain <= INEXTENSIBLE_STRAIN

@@ -30,9 +30,11 @@ _DIRECT_MAX_SOLVES = 8
 # The tension's transverse Courant number c h / l₀ (c = √(T / μ) the speed of transverse waves along the chain, h the
 # substep, l₀ the segment length) from which a direct solve includes the stretch rows' geometric stiffness (transverse
 # rows, see _direct_residuals). Without it the tension's sideways pull is explicit in position: stable only below
-# about 1 (beyond, one solve per substep no longer converges and the chain runs away), and accurate well below it,
-# where the chain's own rows (tridiagonal for a stretch chain) cost a fraction of the rows with it.
-_GEOMETRIC_COURANT = 0.2
+# about 1 (beyond, one solve per substep no longer converges and the chain runs away). Below 0.6 the chain's own rows
+# (tridiagonal for a stretch chain, several times cheaper) keep an inextensible hang within 4e-7 of its length (the
+# hang at 400-550 segments, 4 substeps of 0.5 ms: c h / l₀ up to 0.49-0.67 at its top); from 0.73 they leave 1e-4
+# (600 segments), so the transverse rows take over below that (docs/measurements.md).
+_GEOMETRIC_COURANT = 0.6
 
 
 # ---------------------------------------------------------------------------------------------------------------
