@@ -7,8 +7,12 @@ positions or speeds become :class:`~mjcable.errors.SimulationDivergedError` here
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
+import signal
+import threading
+import time
 from typing import Optional
 
 import mujoco
@@ -23,6 +27,25 @@ from mjcable.solvers.monitor_kernels import step_check
 __all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE"]
 
 _STEP_EPS = 1e-9  # fraction of dt forgiven when counting whole steps in an accumulated duration
+_CALL_SECONDS = 0.1  # s of wall time one call of the backend's run aims at: Ctrl-C stops a long run within about this
+_FIRST_CALL = 16  # steps of a run's first call, before its wall time per step is known
+_GROWTH = 4.0  # the most a call's step count grows over the last one's
+
+
+@contextlib.contextmanager
+def _deferred_interrupt():
+    """Within the block, Ctrl-C (SIGINT) only sets the returned event, so that a run of steps stops at a whole step;
+    only in the main thread with Python's default handler installed (elsewhere the event is never set)."""
+    event = threading.Event()
+    if threading.current_thread() is not threading.main_thread() or (
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield event
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: event.set())
+    try:
+        yield event
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,6 +106,7 @@ class Simulator:
         self._backend: Backend = backend
         n = scene.cable.n_particles
         self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
+        self._step_seconds = None  # wall seconds per step of the last call of the backend's run (None: none yet)
         self._start_steps()
 
     def _start_steps(self) -> None:
@@ -192,17 +216,36 @@ class Simulator:
         targets)`` of :meth:`step_along`) and, with ``until_release``, stopping after a step in which a socket let
         go. Returns the steps taken.
 
+        The steps go to the backend in calls of about ``_CALL_SECONDS`` of wall time each (how a run is split changes
+        nothing, bit for bit), so that Ctrl-C stops a long run between two calls, at a whole step.
+
         Raises:
-          SimulationDivergedError: naming the step that failed its checks."""
-        if count == 0:
-            return 0
-        result = self._backend.run(count, rows=rows, out_x=out_x, out_v=out_v, path=path,
-                                   until_release=until_release)
-        self._steps += result.steps
-        self._positions = self._backend.positions()
-        if result.failure is not None:
-            raise SimulationDivergedError(self.model, self._steps, self.time, result.failure)
-        return result.steps
+          SimulationDivergedError: naming the step that failed its checks.
+          KeyboardInterrupt: Ctrl-C; the steps taken so far count."""
+        done = stored = 0
+        per_call = _FIRST_CALL if self._step_seconds is None else max(1, int(_CALL_SECONDS / self._step_seconds))
+        with _deferred_interrupt() as interrupted:
+            while done < count:
+                k = min(per_call, count - done)
+                last = stored + int(np.searchsorted(rows[stored:], done + k, side="right"))  # rows within this call
+                call_path = None if path is None else (path[0], path[1][done:done + k])
+                start = time.perf_counter()
+                result = self._backend.run(k, rows=rows[stored:last] - done, out_x=out_x[stored:last],
+                                           out_v=out_v[stored:last], path=call_path, until_release=until_release)
+                elapsed = time.perf_counter() - start
+                done += result.steps
+                stored += result.recorded
+                self._steps += result.steps
+                self._positions = self._backend.positions()
+                if result.failure is not None:
+                    raise SimulationDivergedError(self.model, self._steps, self.time, result.failure)
+                if interrupted.is_set():
+                    raise KeyboardInterrupt
+                if result.steps < k:  # a socket let go (until_release)
+                    break
+                self._step_seconds = max(elapsed, 1e-9) / k
+                per_call = max(1, min(int(_GROWTH * k), int(_CALL_SECONDS / self._step_seconds)))
+        return done
 
     def step(self, seconds: Optional[float] = None) -> None:
         """Advance by whole steps of ``dt``; the remainder of ``seconds`` carries over to the next call.
