@@ -40,7 +40,7 @@ from mjcable.solvers import jakobsen, pbd, xpbd
 from mjcable.solvers.settings import JakobsenSettings, PBDSettings, XPBDSettings
 
 __all__ = ["ModelEntry", "FAMILIES", "register", "unregister", "get", "names", "unavailable", "check_model",
-           "make_settings", "build", "check_dt"]
+           "make_settings", "build", "check_dt", "check_substep", "MIN_DT"]
 
 FAMILIES = ("native", "particle")
 
@@ -149,9 +149,25 @@ def make_settings(name: str, **settings):
     return cls(**settings)
 
 
+#: s: the shortest step or substep a Simulator takes. Below it a second takes over a billion steps, and float64 time
+#: (``mj_data.time``, the steps' count × dt) no longer resolves a step after a few hours of simulated time.
+MIN_DT = 1e-9
+
+
 def check_dt(dt) -> float:
-    """``dt`` in seconds, checked finite and > 0."""
-    return _validate.number("dt", dt, low=0.0, low_open=True, unit="s")
+    """``dt`` in seconds, checked finite and at least :data:`MIN_DT`."""
+    return _validate.number("dt", dt, low=MIN_DT, unit="s")
+
+
+def check_substep(dt: float, settings) -> None:
+    """``dt / settings.substeps`` (where the settings have substeps) at least :data:`MIN_DT`.
+
+    Raises:
+      ValueError: naming ``substeps``, ``dt`` and the largest substep count that ``dt`` allows."""
+    substeps = getattr(settings, "substeps", 1)
+    if dt / substeps < MIN_DT:
+        raise ValueError(f"substeps must leave a substep dt / substeps of at least {MIN_DT:g} s, got substeps="
+                         f"{substeps} at dt={dt:g} s (at most {int(dt / MIN_DT)} substeps at that dt)")
 
 
 def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.MjSpec:
@@ -176,7 +192,9 @@ def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.
         raise ValueError(f"scene must be an mjcable.Scene, got {type(scene).__name__}")
     entry = get(model)
     dt = check_dt(dt)
-    return entry.build(scene, make_settings(model, **settings), dt)
+    made = make_settings(model, **settings)
+    check_substep(dt, made)
+    return entry.build(scene, made, dt)
 
 
 for _module, _settings, _summary, _missing in (

@@ -95,6 +95,12 @@ class Simulator:
         entry = catalog.get(model)
         self.dt = catalog.check_dt(dt)
         self.settings = catalog.make_settings(model, **settings)
+        catalog.check_substep(self.dt, self.settings)
+        far = float(np.max(np.abs(scene.cable.particles)))
+        if far > MAX_DISTANCE:
+            raise ValueError(f"scene: the cable starts {far:.6g} m from the origin, beyond the {MAX_DISTANCE:g} m past "
+                             "which a particle counts as run off (mjcable.simulator.MAX_DISTANCE); place the scene "
+                             "nearer the origin")
         self.scene = scene
         self._grippers = scene.grippers
         self._gripper_pins = np.array(scene.grippers, dtype=np.int64)  # step_along's default pins (numba: kept writable)

@@ -60,6 +60,9 @@ class World:
             mujoco.mj_resetDataKeyframe(self.model, self.data, key)
         mujoco.mj_forward(self.model, self.data)
         self.gravity = np.array(self.model.opt.gravity, dtype=np.float64)
+        if not np.all(np.isfinite(self.gravity)):
+            raise ValueError(f"world: <option gravity> must be 3 finite numbers in m/s², got {self.gravity.tolist()} "
+                             f"in {source or 'the given MjSpec'}")
         self.timestep = float(self.model.opt.timestep)
 
     def __repr__(self) -> str:

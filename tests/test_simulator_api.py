@@ -4,6 +4,7 @@ same simulator, velocities, energy and point masses."""
 
 import dataclasses
 
+import mujoco
 import numpy as np
 import pytest
 from scipy import optimize
@@ -245,3 +246,33 @@ def test_composite_is_in_the_catalogue_exactly_where_the_cable_plugin_is():
                 lambda: mjcable.build(scene, "composite"), lambda: composite.build(scene, timestep=0.002)):
         with pytest.raises(ValueError, match=r"MuJoCo 4 removed.*flexrod, joints, and xpbd, pbd or jakobsen"):
             ask()
+
+
+# --- inputs no step can simulate get a ValueError before anything is built -------------------------------------
+
+
+@pytest.mark.parametrize("model", ["springs", "xpbd"])
+def test_a_step_below_a_nanosecond_is_refused(model):
+    scene = mjcable.scenes.get("hang", n_segments=8)
+    with pytest.raises(ValueError, match=r"dt must be a finite number in \[1e-09, inf\) s, got 1e-30"):
+        mjcable.Simulator(scene, model, dt=1e-30)
+    with pytest.raises(ValueError, match=r"substeps must leave a substep dt / substeps of at least 1e-09 s, got "
+                                         r"substeps=1000000000 at dt=0.002 s \(at most 2000000 substeps"):
+        mjcable.Simulator(scene, model, substeps=10**9)
+    with pytest.raises(ValueError, match=r"substeps=1000000000"):
+        mjcable.build(scene, model, substeps=10**9)
+
+
+def test_a_cable_starting_beyond_the_divergence_distance_is_refused():
+    """A start 2 km from the origin is an input no step can take (its first check would call it run off), so it is a
+    ValueError naming the distance and the limit, not a SimulationDivergedError."""
+    far = mjcable.CableSpec([[2000.0, 0.0, 1.0], [2000.5, 0.0, 1.0]], 8, 0.004, 0.05)
+    with pytest.raises(ValueError, match=r"cable starts 2000.5 m from the origin, beyond the 1000 m"):
+        mjcable.Simulator(mjcable.Scene(far), "xpbd")
+
+
+def test_a_world_with_non_finite_gravity_is_refused():
+    spec = mujoco.MjSpec.from_string('<mujoco><option gravity="0 0 nan"/><worldbody/></mujoco>')
+    cable = mjcable.CableSpec([[0.0, 0.0, 1.0], [0.5, 0.0, 1.0]], 8, 0.004, 0.05)
+    with pytest.raises(ValueError, match=r"<option gravity> must be 3 finite numbers in m/s², got \[0.0, 0.0, nan\]"):
+        mjcable.Scene(cable, world=spec)
