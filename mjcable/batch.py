@@ -164,6 +164,9 @@ def _copy_scenes(scene: Scene, n: int, params) -> tuple:
         raise ValueError(f"params has unknown key(s) {unknown}; allowed keys: {list(PARAMS)}")
     columns = {}
     for key, value in params.items():
+        if isinstance(value, (list, tuple)) and any(v is None for v in value):
+            raise ValueError(f"params[{key!r}] must be an array of {n} numbers (shape ({n},)), got {value!r}: a "
+                             "field can't be left to its default for some copies only")
         try:
             a = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError) as exc:

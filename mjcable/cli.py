@@ -17,6 +17,7 @@ Exit status: 0 on success, 1 when some model failed (the rest still ran), 2 on b
 from __future__ import annotations
 
 import argparse
+import os
 import importlib
 import sys
 import time
@@ -43,6 +44,13 @@ def _positive_float(text: str) -> float:
     if not value > 0 or value == float("inf"):
         raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
     return value
+
+
+def _folder(text: str) -> str:
+    """An output folder: a path that is not an existing file."""
+    if os.path.exists(text) and not os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"expected a folder, got {text!r}, an existing file")
+    return text
 
 
 def _positive_int(text: str) -> int:
@@ -111,7 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
         # The flags of mjcable.bench.add_arguments, declared here so that mjcable.bench is imported only when used.
         p = sub.add_parser(name, help=helptext, description=helptext)
         p.add_argument("--quick", action="store_true", help="reduced sweep")
-        p.add_argument("--out", default=None, help=f"output folder (default: {name}_out)")
+        p.add_argument("--out", type=_folder, default=None, help=f"output folder (default: {name}_out)")
         workers = p.add_mutually_exclusive_group()
         workers.add_argument("--jobs", type=_positive_int, default=None,
                              help="worker processes of a local Dask cluster (default: CPU count; 1: no cluster, "

@@ -140,3 +140,10 @@ def test_batch_env_equals_single_environments():
     with pytest.raises(ValueError, match="random must be"):
         mjcable.envs.load_batch("reach_sag", "xpbd", 2, random=[1])
     batch.close()
+
+
+def test_params_with_a_missing_value_name_it():
+    """A per-copy field left to its default for some copies only is a ValueError that shows the list, not "nan"."""
+    with pytest.raises(ValueError, match=r"params\['stretch_stiffness'\] must be an array of 2 numbers \(shape "
+                                         r"\(2,\)\), got \[None, 100\]"):
+        mjcable.Batch(mjcable.scenes.get("table", n_segments=8), "xpbd", 2, params={"stretch_stiffness": [None, 100]})

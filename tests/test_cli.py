@@ -165,3 +165,13 @@ def test_render_env_with_mjcable_envs_shows_the_cable(tmp_path, capsys):
     assert video.shape == (2, 72, 96, 3)
     red = (video[..., 0].astype(int) - video[..., 1] > 60) & (video[..., 0] > 120)
     assert red.sum(axis=(1, 2)).min() > 20  # the cable (drawn centreline) is in every frame
+
+
+@pytest.mark.parametrize("command", ["stress", "bench"])
+def test_sweep_out_that_is_a_file_is_a_usage_error(command, tmp_path):
+    existing = tmp_path / "results.csv"
+    existing.write_text("keep me\n")
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main([command, "--quick", "--out", str(existing)])
+    assert exit_info.value.code == 2
+    assert existing.read_text() == "keep me\n"

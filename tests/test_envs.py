@@ -681,3 +681,12 @@ def test_record_episode(tmp_path):
     video, fps = render.read_video(path)
     assert fps == pytest.approx(25.0)
     assert video.shape == (5, 64, 96, 3)  # 0.2 s at 25 frames per second
+
+
+@pytest.mark.parametrize("random", ["abc", 1.5, -1, True])
+def test_load_rejects_a_random_that_is_no_seed(random):
+    from mjcable import envs
+
+    with pytest.raises(ValueError, match=r"random must be a seed \(an integer >= 0\), a numpy.random.RandomState or "
+                                         r"None, got"):
+        envs.load("unplug", "xpbd", random=random)

@@ -276,3 +276,11 @@ def test_a_world_with_non_finite_gravity_is_refused():
     cable = mjcable.CableSpec([[0.0, 0.0, 1.0], [0.5, 0.0, 1.0]], 8, 0.004, 0.05)
     with pytest.raises(ValueError, match=r"<option gravity> must be 3 finite numbers in m/s², got \[0.0, 0.0, nan\]"):
         mjcable.Scene(cable, world=spec)
+
+
+@pytest.mark.parametrize("model", ["joints", "springs"])
+def test_a_cable_too_light_for_mujoco_names_its_mass(model):
+    cable = mjcable.CableSpec([[0.0, 0.0, 1.0], [0.5, 0.0, 1.0]], 8, 0.004, 1e-30)
+    with pytest.raises(ValueError, match=rf"{model}: MuJoCo cannot compile this scene .*the cable's mass 1e-30 kg over "
+                                         r"8 segments"):
+        mjcable.Simulator(mjcable.Scene(cable), model)

@@ -74,7 +74,17 @@ class NativeBackend:
     def __init__(self, scene: Scene, entry, dt: float, settings: NativeSettings):
         self.scene, self.name, self.dt, self.settings = scene, entry.name, dt, settings
         self.substeps = settings.substeps
-        self.mj_model = entry.build(scene, settings, dt).compile()
+        try:
+            self.mj_model = entry.build(scene, settings, dt).compile()
+        except ValueError as raw:  # MuJoCo's compiler: say which input it is about
+            cable = scene.cable
+            error = str(raw).replace("\n", "; ")
+            raise ValueError(f"{self.name}: MuJoCo cannot compile this scene ({error}); the cable's mass "
+                             f"{cable.mass:g} kg over {cable.n_segments} segments (radius {cable.radius:g} m) gives "
+                             f"bodies of {cable.mass / cable.n_segments:g} kg, and MuJoCo needs every moving "
+                             "body's mass and inertia above 1e-15 (mjMINVAL)"
+                             if "mass and inertia" in error else f"{self.name}: MuJoCo cannot compile this "
+                             f"scene: {error}") from None
         self.mj_data = mujoco.MjData(self.mj_model)
         m = self.mj_model
         n = scene.cable.n_particles

@@ -35,6 +35,7 @@ from mjcable import _dm_control
 
 _dm_control.check()  # a clear ImportError where dm_control is missing or does not run on the installed MuJoCo
 
+import numpy as np  # noqa: E402
 from dm_control.rl import control  # noqa: E402
 
 from mjcable import render  # noqa: E402
@@ -100,6 +101,10 @@ def load(task: str, model: str = "flexrod", *, random=None, time_limit: Optional
     if not isinstance(task, str) or task not in SUITE:
         raise ValueError(f"task must be one of {names()}, got {task!r}")
     catalog.check_model(model)
+    if not (random is None or isinstance(random, np.random.RandomState)
+            or (isinstance(random, (int, np.integer)) and not isinstance(random, (bool, np.bool_)) and random >= 0)):
+        raise ValueError(f"random must be a seed (an integer >= 0), a numpy.random.RandomState or None, "
+                         f"got {random!r}")
     return SUITE[task](model, random=random, time_limit=time_limit, control_timestep=control_timestep, **settings)
 
 
