@@ -43,6 +43,7 @@ import bench_runner  # scripts/bench_runner.py, beside this script
 import bench_skip  # scripts/bench_skip.py, beside this script
 import mjcable
 from mjcable import catalog
+from mjcable.backends.particle import ParticleBackend
 from mjcable.solvers import kernels
 
 SETTINGS = dict(order="gauss-seidel", substeps=4, iterations=1)  # the issue's setting for both ratios
@@ -147,8 +148,8 @@ def bench_hang(repeats: int) -> dict:
 def bench_table(repeats: int) -> dict:
     """``step(1.0)`` on ``table`` with the cable at rest on the table, against the substep kernel plus the
     ``mj_collision`` queries the step made (none while nothing moves: the last query's contacts are kept), on a
-    second simulator's state and contacts (the benchmark reaches into its backend on purpose: the reference is the
-    kernel alone); and ``step(1.0)`` from the start (the cable falls, lands and comes to rest)."""
+    particle backend's state and contacts (built directly, below the Simulator: the reference is the kernel
+    alone); and ``step(1.0)`` from the start (the cable falls, lands and comes to rest)."""
     scene = mjcable.scenes.get("table")
     sim = mjcable.Simulator(scene, "xpbd", **SETTINGS)
     sim.step(0.01)
@@ -156,9 +157,11 @@ def bench_table(repeats: int) -> dict:
     sim.reset()
     sim.step(1.5)  # lying on the table
     before = sim.diagnostics["queries"]
-    ref = mjcable.Simulator(scene, "xpbd", **SETTINGS)
-    ref.step(1.5)
-    S, arrays = ref._backend.state, ref._backend.arrays
+    ref = ParticleBackend(scene, catalog.get("xpbd"), sim.dt, sim.settings)
+    n = scene.cable.n_particles
+    ref.run(int(round(1.5 / sim.dt)), rows=np.zeros(0, dtype=np.int64), out_x=np.zeros((0, n, 3)),
+            out_v=np.zeros((0, n, 3)))
+    S, arrays = ref.state, ref.arrays
     saved = {k: arrays[k].copy() for k in ("x", "v", "x0", "pin_from", "pin_to", "fric_n", "fric_mu", "fric_slid",
                                      "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob")}
     steps = int(round(SECONDS / sim.dt))
@@ -185,7 +188,7 @@ def bench_table(repeats: int) -> dict:
 
     t_sim, t_ref = _best_pair(timed, reference, repeats, prepare_other=restore)
     return dict(sim=t_sim, reference=t_ref, start=t_start, contacts=sim.diagnostics["contacts"],
-                ref_contacts=ref.diagnostics["contacts"], steps=steps, queries=queries["n"])
+                ref_contacts=ref.diagnostics()["contacts"], steps=steps, queries=queries["n"])
 
 
 def bench_native(repeats: int) -> dict:

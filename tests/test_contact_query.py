@@ -6,7 +6,24 @@ import mujoco
 import numpy as np
 
 import mjcable
+from mjcable import catalog
+from mjcable.backends.particle import ParticleBackend
 from mjcable.solvers import kernels, kernels_layout, query_kernels
+
+DT = 0.002  # s, the Simulator's default
+
+
+def _backend(scene) -> ParticleBackend:
+    """The xpbd particle backend of ``scene`` at its defaults (dt = 2 ms), built as the Simulator builds it: these
+    tests read the solver's contact buffers and its kept query, below the Simulator."""
+    return ParticleBackend(scene, catalog.get("xpbd"), DT, catalog.make_settings("xpbd"))
+
+
+def _steps(backend: ParticleBackend, count: int = 1) -> None:
+    n = backend.scene.cable.n_particles
+    result = backend.run(count, rows=np.zeros(0, dtype=np.int64), out_x=np.zeros((0, n, 3)),
+                         out_v=np.zeros((0, n, 3)))
+    assert result.failure is None and result.steps == count
 
 
 def test_a_cable_resting_on_a_table_has_one_contact_per_particle():
@@ -14,14 +31,14 @@ def test_a_cable_resting_on_a_table_has_one_contact_per_particle():
     capsules meeting at a particle an end contact there (a few 1e-6 of the segment off its end), and the query
     keeps one, so that the solver does not project the same constraint twice."""
     scene = mjcable.scenes.get("table")
-    sim = mjcable.Simulator(scene, "xpbd")
-    sim.step(1.0)
-    z = sim.positions[:, 2]
+    backend = _backend(scene)
+    _steps(backend, round(1.0 / DT))
+    z = backend.positions()[:, 2]
     assert z.max() - z.min() < 1e-6  # at rest on the table top, every particle on it
     # the steps at rest keep the contacts of the last query, run as the cable came to rest: query again now
-    sim._backend.arrays.par[0]["query_margin"] = -np.inf
-    sim.step()
-    assert sim.diagnostics["contacts"] == scene.cable.n_segments + 1
+    backend.arrays.par[0]["query_margin"] = -np.inf
+    _steps(backend)
+    assert backend.diagnostics()["contacts"] == scene.cable.n_segments + 1
 
 
 def test_a_cable_at_rest_keeps_its_last_query():
@@ -39,19 +56,19 @@ def test_a_cable_at_rest_keeps_its_last_query():
     assert sim.diagnostics["contacts"] >= scene.cable.n_segments + 1  # its contacts kept: every particle's
 
 
-def _fresh_pairs(sim, margin: float) -> set:
+def _fresh_pairs(backend, margin: float) -> set:
     """(segment, obstacle geom) of every pair MuJoCo finds within ``margin`` m at the cable's current positions: a
     fresh ``mj_collision`` on a data copy (the model's pair margins restored after)."""
-    backend = sim._backend
-    m, n = sim.mj_model, sim.scene.cable.n_segments
+    m, n = backend.mj_model, backend.scene.cable.n_segments
     d = mujoco.MjData(m)
-    query_kernels.proxy_poses(sim.positions, d.mocap_pos[:n], d.mocap_quat[:n])
+    query_kernels.proxy_poses(backend.positions(), d.mocap_pos[:n], d.mocap_quat[:n])
     saved = m.pair_margin.copy()
-    m.pair_margin[backend._obstacles.pairs] = margin
+    par = backend.arrays.par[0]
+    m.pair_margin[par["pair_start"]:par["pair_stop"]] = margin  # the cable's pairs
     mujoco.mj_kinematics(m, d)
     mujoco.mj_collision(m, d)
     m.pair_margin[:] = saved
-    seg = backend._obstacles.segment_of_geom
+    seg = backend.arrays.segment_of_geom
     pairs = set()
     for g0, g1 in d.contact.geom[:d.ncon]:
         if (seg[g0] >= 0) != (seg[g1] >= 0):
@@ -59,13 +76,13 @@ def _fresh_pairs(sim, margin: float) -> set:
     return pairs
 
 
-def _kept_covers(sim, pair) -> bool:
+def _kept_covers(backend, pair) -> bool:
     """Whether the step's contacts act on ``pair`` = (segment, obstacle geom): a contact of that segment with that
     obstacle, or one at either of its particles (the query keeps one contact where two capsules meet)."""
-    backend = sim._backend
     n = int(backend.arrays.par[0]["n_con"])
     seg, frac, _, _, _, shape = (a[:n] for a in kernels_layout.contact_buffers(backend.state)[:6])
-    geoms = backend._obstacles.obstacle_geoms[shape]
+    row_of_geom = backend.arrays.shape_of_geom
+    geoms = np.flatnonzero(row_of_geom >= 0)[np.argsort(row_of_geom[row_of_geom >= 0])][shape]
     i, g = pair
     same = geoms == g
     at_start = (seg == i - 1) & (frac == 1.0) | (seg == i) & (frac == 0.0)
@@ -81,9 +98,8 @@ def test_a_kept_query_holds_every_pair_a_step_needs_while_a_gripper_drags_the_ca
     z = mjcable.scenes.TABLE_TOP + table.cable.radius
     cable = dataclasses.replace(table.cable, points=((-0.5, 0.0, z), (0.5, 0.0, z)))  # straight, on the top
     scene = dataclasses.replace(table, cable=cable, pins=(mjcable.Pin(0, "gripper"),))
-    sim = mjcable.Simulator(scene, "xpbd")
-    backend = sim._backend
-    start = sim.gripper_positions[0]
+    backend = _backend(scene)
+    start = backend.gripper_positions()[0]
     edge = np.array([-0.7, 0.0, start[2]])  # past the table's edge (x = -0.6), then down and away to the floor
     end = np.array([-2.0, 0.0, 0.02])
 
@@ -95,21 +111,21 @@ def test_a_kept_query_holds_every_pair_a_step_needs_while_a_gripper_drags_the_ca
     kept = queried = 0
     r = scene.cable.radius
     a, par = backend.arrays, backend.arrays.par[0]
-    for target in path:  # one step at a time, checked before each
-        margin = kernels.step_margin(a.v, sim.settings.contact_margin, sim.dt, par["fall"])
-        queries = sim.diagnostics["queries"]
-        sim.move_gripper(0, target)
+    for step, target in enumerate(path):  # one step at a time, checked before each
+        margin = kernels.step_margin(a.v, backend.settings.contact_margin, DT, par["fall"])
+        queries = backend.diagnostics()["queries"]
+        backend.move_gripper(0, target)
         if query_kernels.query_holds(a.x, margin, a.query_x, par["query_margin"]):
-            need = _fresh_pairs(sim, margin)
-            missing = [p for p in need if not _kept_covers(sim, p)]
-            assert not missing, f"step {sim.steps}: pairs within the step's margin not kept: {missing}"
+            need = _fresh_pairs(backend, margin)
+            missing = [p for p in need if not _kept_covers(backend, p)]
+            assert not missing, f"step {step}: pairs within the step's margin not kept: {missing}"
             kept += 1
-        sim.step()
-        queried += sim.diagnostics["queries"] - queries
-        x = sim.positions
+        _steps(backend)
+        queried += backend.diagnostics()["queries"] - queries
+        x = backend.positions()
         assert x[:, 2].min() > -1e-3 + r  # never through the floor
         over = (np.abs(x[:, 0]) < 0.6 - r) & (np.abs(x[:, 1]) < 0.4 - r)  # over or under the table's 4 cm slab
         top, bottom = mjcable.scenes.TABLE_TOP, mjcable.scenes.TABLE_TOP - 0.04
         assert not np.any((x[over, 2] < top + r - 1e-3) & (x[over, 2] > bottom - r + 1e-3))  # never inside it
-    x = sim.positions
+    x = backend.positions()
     assert np.all(x[:, 2] < 0.05) and kept > 100 and queried > 50  # it reached the floor; both kinds of step ran

@@ -119,7 +119,7 @@ def _fine_hang(substeps: int, segments: int = FINE_SEGMENTS) -> tuple:
         scene = mjcable.scenes.get("hang", n_segments=segments)
     sim = mjcable.Simulator(scene, "xpbd", substeps=substeps)
     sim.step(SETTLE)
-    solves = sim._backend.arrays.par[0]["direct_solves"] / (sim.steps * substeps)
+    solves = sim.diagnostics["direct_solves"] / (sim.steps * substeps)
     return float(np.max(_strain(sim.positions, scene.cable.segment_length))), solves
 
 

@@ -33,8 +33,8 @@ Two-way contacts. The cable's contacts with the world's geoms (:mod:`mjcable.sol
 world's dynamic bodies (not welded to the world nor to a mocap body: ``body_weldid`` ≠ 0 and not mocap), once per
 substep:
 
-1. after every host step the moving obstacles' shapes are refreshed (:meth:`ObstacleContacts.refresh_moving`), so
-   the solver's substep meets each body where it is;
+1. after every host step the moving obstacles' shapes are refreshed
+   (:func:`~mjcable.solvers.query_kernels.refresh_moving`), so the solver's substep meets each body where it is;
 2. the solver's substep treats every obstacle as immovable and sums, per obstacle, the impulses its contacts gave
    the cable (:func:`~mjcable.solvers.contact_kernels.collect_impulses`): j = Σ_c λₙ_c n_c (normal) + Σ_p f_p
    (each free particle's friction impulse), in kg·m, so that j / h = Σ m_p Δx_p / h is the momentum the contact
@@ -92,10 +92,6 @@ class Host:
       obstacles: the cable's contacts with the world's geoms (``None``: none); those on dynamic bodies get the
         contacts' reactions.
 
-    Attributes:
-      contact_wrench: ``(nbody, 6)`` N, N·m: the last substep's contact force on each body and its moment about the
-        body's centre of mass, as applied through ``xfrc_applied``.
-
     Raises:
       RuntimeError: MuJoCo's C API is unavailable (:func:`mjcable.solvers.capi.host_unavailable` says why): the host
         runs only in compiled code.
@@ -119,7 +115,6 @@ class Host:
         #: (K, 2) [row in the state's clamp arrays, body id] of the body pins' clamps
         self._clamps = np.array([(clamped.index(k), int(bodies[j])) for j, k in enumerate(pins)
                                  if scene.pins[k].clamp], dtype=np.int64).reshape(-1, 2)
-        self.contact_wrench = np.zeros((m.nbody, 6))
         rows = row_bodies = np.zeros(0, dtype=np.int64)
         n_rows = 0  # obstacle rows of the contact impulses (none: no body takes them)
         if obstacles is not None:
@@ -139,7 +134,7 @@ class Host:
             link_site=self.sites, link_clamp=self._clamps, clamp_local=np.zeros((len(self._clamps), 3, 2)),
             site_xpos=d.site_xpos, xipos=d.xipos, xmat=d.xmat, xfrc_applied=d.xfrc_applied,
             warning_number=d.warning.number, bad=np.array([int(w) for w in _BAD], dtype=np.int64),
-            wrench_rows=rows, wrench_bodies=row_bodies, contact_wrench=self.contact_wrench,
+            wrench_rows=rows, wrench_bodies=row_bodies, contact_wrench=np.zeros((m.nbody, 6)),
             impulse_force=np.zeros((n_rows, 3)), impulse_moment=np.zeros((n_rows, 3)),
             saved=np.zeros(nstate), jacp=np.zeros((3, m.nv)), jn=np.zeros((1, m.nv)), solved=np.zeros((1, m.nv)),
             p0=np.zeros((L, 3)), arm=np.zeros((L, 3)), free=np.zeros((L, 3)), free_w=np.zeros(L),

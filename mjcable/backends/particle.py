@@ -150,7 +150,7 @@ class ParticleBackend:
             self._host.reset(a)
         if self._obstacles is not None:
             self._pose()
-            self._obstacles.query(self.state, a.x, self.settings.contact_margin)
+            self._obstacles.query(self.state, self.settings.contact_margin)
             if self._host is not None:
                 self._obstacles.disable()
         self._par["time"] = d.time
@@ -209,7 +209,7 @@ class ParticleBackend:
         compiled loop asked for."""
         self._pose()
         par = self._par
-        par["n_con"] = self._obstacles.query(self.state, self.arrays.x, float(par["margin"]))
+        par["n_con"] = self._obstacles.query(self.state, float(par["margin"]))
         par["queries"] += 1
 
     def _run_user(self, count, rows, out_x, out_v, pins, targets, until_release) -> tuple:
@@ -265,8 +265,6 @@ class ParticleBackend:
         mujoco.mj_camlight(self.mj_model, self.mj_data)  # cameras and lights (a renderer reads cam_xpos)
         # the exact particles (the capsules keep their rest length, so their end sites are off by the strain)
         self._site_pos[:] = self.arrays.x
-        if self._host is not None and self._obstacles is not None:
-            self._obstacles.disable()  # (the host's mj_step must not see the proxy's pairs)
 
     # -- the Simulator's interface --------------------------------------------------------------------------------
 
@@ -324,8 +322,10 @@ class ParticleBackend:
 
     def diagnostics(self) -> dict:
         """``contacts`` and ``self_contacts`` found by the last step, ``queries`` (steps that ran MuJoCo's collision
-        query since the last reset) and cumulative seconds in ``solve_s`` (the compiled steps, their queries
-        included) and ``sync_s`` (posing the proxy for ``mj_data``'s readers)."""
+        query since the last reset), ``direct_solves`` (the direct order's banded solves since the last reset: one
+        per substep and iteration where each converges) and cumulative seconds in ``solve_s`` (the compiled steps,
+        their queries included) and ``sync_s`` (posing the proxy for ``mj_data``'s readers)."""
         par = self._par
         return {"contacts": int(par["n_con"]), "self_contacts": int(par["n_self"]), "queries": int(par["queries"]),
+                "direct_solves": int(par["direct_solves"]),
                 **{f"{k}_s": v for k, v in self.timing.items()}}

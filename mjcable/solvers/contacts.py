@@ -97,8 +97,8 @@ class ObstacleContacts:
         g = self.moving_geoms
         moving = np.stack([g, self.shape_of_geom[g]], axis=1).astype(np.int64).reshape(-1, 2)
         return dict(shape_type=self.shape_type, shape_size=self.shape_size, shape_pos=self.shape_pos,
-                    shape_rot=self.shape_rot, shape_moves=self.shape_moves, box_lo=self._box_lo, box_hi=self._box_hi, plane_n=self._plane_n,
-                    plane_p=self._plane_p, pair_margin=m.pair_margin, segment_of_geom=self.segment_of_geom,
+                    shape_rot=self.shape_rot, shape_moves=self.shape_moves, box_lo=self._box_lo, box_hi=self._box_hi,
+                    plane_n=self._plane_n, plane_p=self._plane_p, pair_margin=m.pair_margin, segment_of_geom=self.segment_of_geom,
                     shape_of_geom=self.shape_of_geom, geom_friction=self.friction, moving=moving,
                     geom_xpos=d.geom_xpos, geom_xmat=d.geom_xmat)
 
@@ -107,25 +107,19 @@ class ObstacleContacts:
         next query switches them back on."""
         self.mj_model.pair_margin[self.pairs] = layout.PAIRS_OFF
 
-    def refresh_moving(self) -> None:
-        """The moving obstacles' shapes from ``mj_data``'s current geom poses (a user world's host calls it after
-        each of its steps, so that the cable meets its bodies where they are in every substep)."""
-        if len(self.moving_geoms):
-            self._refresh_shapes(self.moving_geoms)
-
     def _refresh_shapes(self, geoms: np.ndarray) -> None:
         d = self.mj_data
         rows = self.shape_of_geom[geoms]
         self.shape_pos[rows] = d.geom_xpos[geoms]
         self.shape_rot[rows] = d.geom_xmat[geoms].reshape(-1, 3, 3)
 
-    def query(self, S, x: np.ndarray, margin: float) -> int:
+    def query(self, S, margin: float) -> int:
         """The query of :func:`~mjcable.solvers.query_kernels.query_obstacles` through the bindings
         (``mujoco.mj_collision``), with the proxy posed from the state's particles beforehand: the contacts closer
-        than ``margin`` metres (particles ``x`` (N, 3) m, the state's) into the state ``S``'s buffers (grown to hold them). Returns their number."""
+        than ``margin`` metres into the state ``S``'s buffers (grown to hold them). Returns their number."""
         m, d = self.mj_model, self.mj_data
         m.pair_margin[self.pairs] = margin
-        self.refresh_moving()
+        query_kernels.refresh_moving(S)  # as the compiled query does
         mujoco.mj_collision(m, d)
         ncon = d.ncon
         query_kernels.reserve_contacts(S, ncon)
