@@ -18,11 +18,10 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from mjcable import _validate, catalog
-from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend, check_failure
+from mjcable import _validate, catalog, monitor
+from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
-from mjcable.solvers.monitor_kernels import step_check
 
 __all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE"]
 
@@ -113,16 +112,16 @@ class Simulator:
         n = scene.cable.n_particles
         self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
         self._step_seconds = None  # wall seconds per step of the last call of the backend's run (None: none yet)
+        self._warned = set()  # the checks a PhysicsWarning was given for
         self._start_steps()
 
     def _start_steps(self) -> None:
         self._steps = 0
         self._pending = 0.0
         self._positions = self._backend.positions()
-        reason = check_failure(*step_check(self._positions, self._positions, self._positions, self.dt, MAX_DISTANCE,
-                                           MAX_SPEED))
-        if reason is not None:
-            raise SimulationDivergedError(self.model, 0, 0.0, reason)
+        if not np.all(np.isfinite(self._positions)):
+            raise SimulationDivergedError(self.model, 0, 0.0, "non-finite particle state (NaN or inf) at the start",
+                                          check="non-finite")
 
     # -- state ----------------------------------------------------------------------------------------------------
 
@@ -243,8 +242,12 @@ class Simulator:
                 stored += result.recorded
                 self._steps += result.steps
                 self._positions = self._backend.positions()
+                if result.warning is not None:
+                    self._warn(result.warning, self._steps - result.steps + result.warning.step)
                 if result.failure is not None:
-                    raise SimulationDivergedError(self.model, self._steps, self.time, result.failure)
+                    found = result.failure
+                    raise SimulationDivergedError(self.model, self._steps, self.time, found.reason, check=found.check,
+                                                  value=found.value, fix=self._fix(found.check))
                 if interrupted.is_set():
                     raise KeyboardInterrupt
                 if result.steps < k:  # a socket let go (until_release)
@@ -252,6 +255,15 @@ class Simulator:
                 self._step_seconds = max(elapsed, 1e-9) / k
                 per_call = max(1, min(int(_GROWTH * k), int(_CALL_SECONDS / self._step_seconds)))
         return done
+
+    def _fix(self, check: str) -> str:
+        return monitor.fix(self.scene, self.model, self.settings, self.dt, check)
+
+    def _warn(self, found: monitor.Breach, step: int) -> None:
+        """A :class:`~mjcable.errors.PhysicsWarning` for ``found`` at ``step``, once per check and Simulator."""
+        if found.check not in self._warned:
+            self._warned.add(found.check)
+            monitor.warn(found, self.model, step, step * self.dt, self._fix(found.check))
 
     def step(self, seconds: Optional[float] = None) -> None:
         """Advance by whole steps of ``dt``; the remainder of ``seconds`` carries over to the next call.
