@@ -11,7 +11,8 @@ Read-outs, all from MuJoCo's own state:
   kinematic tree realises (the root of a capsule chain) exerts the force its parent transmits to the root body
   (``cfrc_int`` after ``mj_rnePostConstraint``). Either way the pinned particle's own weight is included;
 * pin torques: a clamp held by two connects exerts (x_j − x_i) × f_clamp about its particle; a welded root the
-  transmitted torque moved to the particle.
+  transmitted torque moved to the particle;
+* energy: the cable's own kinetic, gravitational and elastic energy (:mod:`mjcable.backends.native_energy`).
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ from typing import Callable, Optional
 import mujoco
 import numpy as np
 
-from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, RunResult, check_failure
+from mjcable.backends.native_energy import CableEnergy
+from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Energy, RunResult, check_failure
 from mjcable.mjcf import world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
@@ -103,6 +105,7 @@ class NativeBackend:
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]
         self._gripper_from = {}  # mocap id -> its position at the start of the next step (grippers moved since)
         self._added = np.zeros(n)  # kg of point masses added per particle
+        self._energy = CableEnergy(m, self._sites, scene)
         self.reset()
 
     # -- the step -------------------------------------------------------------------------------------------------
@@ -217,6 +220,11 @@ class NativeBackend:
 
     def particle_masses(self) -> np.ndarray:
         return self.scene.cable.particle_masses + self._added
+
+    def energy(self) -> Energy:
+        """The cable's energy: MuJoCo's own terms restricted to the cable, plus flex bending and the cable plugin
+        (:mod:`mjcable.backends.native_energy`)."""
+        return self._energy(self.mj_model, self.mj_data, self.positions())
 
     def _tree_wrench(self, k: int) -> np.ndarray:
         """(6,) [torque about the pinned particle, force] that the holder (world or gripper) transmits to the
