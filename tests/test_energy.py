@@ -90,6 +90,27 @@ def test_energy_parts_add_up_and_gravity_and_kinetic_are_the_particles(model):
         e.kinetic = 0.0
 
 
+@pytest.mark.parametrize("model", MODEL_PARAMS)
+def test_energy_in_a_user_world_is_the_cables_alone(model):
+    """A 2 kg box falls freely beside the cable in the user's world (gravity 4.9 m/s²): the cable's energy holds
+    none of its weight or speed."""
+    g_world = 4.9
+    xml = f"""<mujoco><option gravity="0 0 -{g_world}"/><worldbody><body name="box" pos="1 0 1">
+      <joint type="slide" axis="0 0 1"/><geom type="box" size="0.05 0.05 0.05" mass="2"/></body></worldbody></mujoco>"""
+    cable = mjcable.CableSpec([[0, 0, 1.0], [0.3, 0, 1.0]], 10, 0.005, 0.05, young=1e5)
+    scene = mjcable.Scene(cable, pins=(mjcable.Pin(0),), world=mujoco.MjSpec.from_string(xml))
+    sim = mjcable.Simulator(scene, model)
+    sim.step(0.2)
+    box = sim.mj_data.body("box")
+    assert box.cvel[5] == pytest.approx(-g_world * 0.2, rel=0.02)  # (the box falls: 2 kg at ~1 m/s)
+    e = sim.energy(parts=True)
+    m, x, v = sim.particle_masses, sim.positions, sim.velocities
+    assert e.gravity == pytest.approx(float(m @ x[:, 2]) * g_world, rel=1e-12)
+    if model not in ("joints", "composite"):
+        assert e.kinetic == pytest.approx(0.5 * float(np.sum(m * np.sum(v * v, axis=1))), rel=1e-12)
+    assert e.kinetic < 0.1 * 0.5 * 2.0 * (g_world * 0.2) ** 2  # the swinging cable's, not the falling box's 0.96 J
+
+
 # -- native models: MuJoCo's own energy and forces ------------------------------------------------------------------
 
 
