@@ -1,6 +1,10 @@
-"""Errors raised by mjcable."""
+"""Errors and warnings raised by mjcable."""
 
-__all__ = ["SimulationDivergedError"]
+__all__ = ["SimulationDivergedError", "PhysicsWarning"]
+
+
+class PhysicsWarning(UserWarning):
+    """A result the model can only partly vouch for: the fix is in the message."""
 
 
 class SimulationDivergedError(RuntimeError):

@@ -18,7 +18,7 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from mjcable import _validate, catalog
+from mjcable import _validate, catalog, prechecks
 from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend, check_failure
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
@@ -79,7 +79,13 @@ class Simulator:
         :class:`mjcable.solvers.settings.XPBDSettings`; :attr:`settings` holds them with the defaults filled in).
 
     Raises:
-      ValueError: an unknown model, a setting the model does not take, or a value out of range.
+      ValueError: an unknown model, a setting the model does not take, a value out of range, or a scene the model
+        cannot simulate.
+
+    Warns:
+      PhysicsWarning: what the model would get wrong about the scene at these settings, with the fix
+        (:mod:`mjcable.prechecks`: a cable property the model ignores, a substep beyond the model's stability rule,
+        a rod or chain that the solver's iterations leave softer than stated).
 
     Example::
 
@@ -101,6 +107,7 @@ class Simulator:
             raise ValueError(f"scene: the cable starts {far:.6g} m from the origin, beyond the {MAX_DISTANCE:g} m past "
                              "which a particle counts as run off (mjcable.simulator.MAX_DISTANCE); place the scene "
                              "nearer the origin")
+        prechecks.check(scene, entry, self.settings, self.dt)
         self.scene = scene
         self._grippers = scene.grippers
         self._gripper_pins = np.array(scene.grippers, dtype=np.int64)  # step_along's default pins (numba: kept writable)
