@@ -22,8 +22,9 @@ particle). The maps are dense (the state has n + 1 positions and a multiplier pe
 per sweep and raised to the iteration count by squaring: cheap up to :data:`MAX_SEGMENTS` segments, which is where
 the analysis stops (it returns ``None`` beyond).
 
-Contacts, the tension's geometric stiffness and a curved rest shape are left out: the numbers are what the
-iterations do to the rod's own stiffness, an estimate of the effect in any scene.
+Contacts, the tension's geometric stiffness, a curved rest shape and the curvature rows' small axial share are
+left out: the numbers are what the iterations do to the rod's own stiffness, an estimate of the effect in any scene
+(tests/test_prechecks.py measures both against the solvers).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import dataclasses
 from typing import Optional
 
 import numpy as np
+from scipy import linalg
 
 from mjcable.scene import Scene
 from mjcable.solvers.settings import ParticleSettings
@@ -40,7 +42,9 @@ from mjcable.solvers.state import Rules
 __all__ = ["Rows", "sweep_map", "static_response", "bending_fraction", "stretch_strain", "MAX_SEGMENTS"]
 
 MAX_SEGMENTS = 400  # the longest chain analysed (a dense map of about 3n × 3n entries, raised by squaring)
-_RIGID = 1e-9  # eigenvalues of K below this fraction of the largest are rigid motions, not bending modes
+_RIGID = 1e-9  # a lowest eigenvalue of K below this fraction of its largest diagonal term is a rigid motion
+_BAND = 2  # half-bandwidth of the curvature rows' stiffness (each row spans three neighbours)
+_DIRECT_REGULARIZATION = 1e-10  # relative compliance added to the direct rows (direct_kernels' own)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,14 +82,15 @@ def _direct(rows: Rows, w: np.ndarray, alpha_t: np.ndarray, n_p: int) -> np.ndar
     """The direct solve of the rows ``rows.direct`` as a matrix on (positions, multipliers): Δλ = K A⁻¹ (−G y − α̃ λ),
     A = G W Gᵀ + α̃ (kernels: the banded system), y += W Gᵀ Δλ, λ += Δλ."""
     m = len(rows.k)
-    sel = np.flatnonzero(rows.direct)
+    live = np.sum(rows.grad**2 * w, axis=1) + alpha_t > 0.0  # a row on held particles alone does nothing
+    sel = np.flatnonzero(rows.direct & live)
     g = rows.grad[sel]
     a = (g * w) @ g.T + np.diag(alpha_t[sel])
-    solve = rows.k[sel][:, None] * np.linalg.pinv(a)  # Δλ = solve @ rhs
+    a += _DIRECT_REGULARIZATION * np.diag(np.diag(a))  # as the kernels: redundant hard rows stay solvable
     rhs = np.zeros((len(sel), n_p + m))  # rhs = −G y − α̃ λ as a matrix on the state
     rhs[:, :n_p] = -g
     rhs[np.arange(len(sel)), n_p + sel] = -alpha_t[sel]
-    dlam = solve @ rhs
+    dlam = rows.k[sel][:, None] * np.linalg.solve(a, rhs)
     step = np.eye(n_p + m)
     step[:n_p] += (w[:, None] * g.T) @ dlam
     step[n_p + sel] += dlam
@@ -148,7 +153,11 @@ def static_response(p: np.ndarray, free: np.ndarray, load: np.ndarray, h: float)
     free particles (least squares where rigid motions leave it singular)."""
     pf = p[np.ix_(free, free)]
     y = np.zeros(len(load))
-    y[free] = np.linalg.lstsq(np.eye(len(pf)) - pf, h * h * pf @ load[free], rcond=None)[0]
+    lhs, rhs = np.eye(len(pf)) - pf, h * h * pf @ load[free]
+    try:
+        y[free] = np.linalg.solve(lhs, rhs)
+    except np.linalg.LinAlgError:
+        y[free] = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
     return y
 
 
@@ -219,17 +228,21 @@ def bending_fraction(scene: Scene, rules: Rules, settings: ParticleSettings, h: 
     held = int(np.sum(~free))
     if held < 2 and not _clamps(scene):
         return None
+    if settings.order == "direct" and rules.direct_bending and rules.k_bend == rules.k_clamp == 1.0:
+        return 1.0  # bending solved at once: converged
     stated = _bending_rows(scene, rules, alpha_bend, 2.0 * alpha_bend, 1.0)
     gf = stated.grad[:, free]
-    stiffness = gf.T @ (gf / stated.alpha[:, None])
     m_half = 1.0 / np.sqrt(mass[free])
-    values, vectors = np.linalg.eigh(m_half[:, None] * stiffness * m_half[None, :])
-    bending = np.flatnonzero(values > _RIGID * values[-1])
-    if not len(bending):
+    scaled = (gf * m_half).T @ (gf * m_half / stated.alpha[:, None])  # M^-½ K M^-½, pentadiagonal
+    band = np.zeros((_BAND + 1, len(scaled)))
+    for d in range(_BAND + 1):
+        band[_BAND - d, d:] = np.diagonal(scaled, d)
+    values, vectors = linalg.eig_banded(band, select="i", select_range=(0, 0))
+    omega2 = float(values[0])
+    if omega2 <= _RIGID * float(np.max(np.diagonal(scaled))):  # a rigid motion, not a bending mode
         return None
-    omega2 = values[bending[0]]
     phi = np.zeros(n + 1)
-    phi[free] = m_half * vectors[:, bending[0]]  # M-normalised: φᵀ M φ = 1
+    phi[free] = m_half * vectors[:, 0]  # M-normalised: φᵀ M φ = 1
     model = _bending_rows(scene, rules, rules.alpha_bend, rules.alpha_clamp, rules.k_clamp)
     p = sweep_map(model, w, h, order=settings.order, iterations=settings.iterations, omega=settings.omega,
                   count=_counts(n, rules.bending, _clamps(scene)))
@@ -255,23 +268,17 @@ def stretch_strain(scene: Scene, rules: Rules, settings: ParticleSettings, h: fl
     w, mass, free = _chain(scene, hung)
     if n > MAX_SEGMENTS or free.all():
         return None
+    if settings.order == "direct" and rules.k_stretch == 1.0:
+        return 0.0  # the stretch chain solved at once: converged
     grad = np.zeros((n, n + 1))
     grad[np.arange(n), np.arange(n)], grad[np.arange(n), np.arange(1, n + 1)] = -1.0, 1.0
-    alpha = np.full(n, rules.alpha_stretch)
-    k = np.full(n, rules.k_stretch)
-    direct = np.ones(n, dtype=bool)
-    if rules.bending == "curvature":  # the curvature rows act on the axial coordinate too
-        bend = _bending_rows(scene, rules, rules.alpha_bend, 0.0, 1.0)
-        keep = slice(0, n - 1)
-        grad = np.vstack([grad, bend.grad[keep]])
-        alpha, k = np.r_[alpha, bend.alpha[keep]], np.r_[k, bend.k[keep]]
-        direct = np.r_[direct, bend.direct[keep]]
-    rows = Rows(grad=grad, alpha=alpha, k=k, direct=direct)
+    rows = Rows(grad=grad, alpha=np.full(n, rules.alpha_stretch), k=np.full(n, rules.k_stretch),
+                direct=np.ones(n, dtype=bool))
     load = np.where(free, float(np.linalg.norm(scene.gravity)), 0.0)
-    count = _counts(n, rules.bending, _clamps(scene))
+    count = _counts(n, rules.bending, _clamps(scene))  # Jacobi averages over every chain row, bending's included
     p = sweep_map(rows, w, h, order=settings.order, iterations=settings.iterations, omega=settings.omega, count=count)
-    converged = dataclasses.replace(rows, direct=np.ones(len(k), dtype=bool), k=np.ones(len(k)))
-    exact = sweep_map(converged, w, h, order="direct", iterations=1)  # the rows' stated compliances, solved exactly
     strain = np.diff(static_response(p, free, load, h)) / l0
-    stated = np.diff(static_response(exact, free, load, h)) / l0
-    return float(np.max(np.abs(strain - stated))) if len(strain) else 0.0
+    if rules.alpha_stretch > 0.0:  # the stated compliance, solved exactly
+        exact = sweep_map(dataclasses.replace(rows, k=np.ones(n)), w, h, order="direct", iterations=1)
+        strain -= np.diff(static_response(exact, free, load, h)) / l0
+    return float(np.max(np.abs(strain)))
