@@ -107,16 +107,6 @@ def _fall(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
               f"at dt={dt:g} s (h <= sqrt(l₀ / |g|) = {math.sqrt(l0 / g):.3g} s), or a smaller dt")
 
 
-def _hung_masses(scene: Scene) -> np.ndarray:
-    """``(n + 1,)`` kg: what bodies hang on each particle through its body pins (weight / |g|)."""
-    hung = np.zeros(scene.cable.n_particles)
-    g = float(np.linalg.norm(scene.gravity))
-    if g > 0.0:
-        for k, weight in enumerate(scene.hanging_weights):
-            hung[scene.pin_particle(k)] += weight / g
-    return hung
-
-
 def _stated_bending(scene: Scene, rules, settings) -> Optional[float]:
     """The curvature compliance the user states (1/(N·m³)): the model's own (XPBD), else 1 / (E·I·l₀) where the
     bending factor derives from E·I (PBD, Jakobsen without ``bend_factor``); ``None``: nothing stated."""
@@ -156,7 +146,7 @@ def _more_substeps(settings, measure, good) -> Optional[int]:
 
 def _iterations(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
     """The stiffness a particle solver's iterations leave the cable (:mod:`mjcable.solvers.convergence`)."""
-    hung = _hung_masses(scene)
+    hung = convergence.hung_masses(scene)
 
     def rules(s):
         return entry.rules(scene, s, dt / s.substeps)

@@ -17,8 +17,8 @@ Mapping from the physical cable:
   inextensible cable (``stretch_stiffness=None``) gets the largest k₁ the rule allows; a stiffer E·A (or E·I) is
   capped there with a :class:`~mjcable.errors.PhysicsWarning`. The static strain under tension T is then
   T / (k₁ l₀) ∝ h², which is why the model defaults to 10 MuJoCo steps per ``dt``; a Simulator warns when that
-  strain under the scene's load (:attr:`~mjcable.scene.Scene.max_tension`: the cable's weight and what bodies hang
-  on its pins) would exceed :data:`STRAIN_WARNING` for a nominally inextensible cable (:func:`precheck`);
+  strain under the cable's weight and what bodies hang on its pins would exceed :data:`STRAIN_WARNING` for a
+  nominally inextensible cable (:func:`precheck`);
 * contacts: sphere geoms of the cable radius; the obstacles get a stiff contact time constant
   (:func:`mjcable.mjcf.world.stiffen_obstacle_contacts`), without which the spheres sink through a thin plate and
   chatter as they slide.
@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import Optional
 
 import mujoco
 import numpy as np
@@ -35,6 +36,7 @@ import numpy as np
 from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
+from mjcable.solvers import convergence
 
 __all__ = ["build", "spring_stiffness", "precheck", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE",
            "STRAIN_WARNING"]
@@ -81,11 +83,12 @@ def spring_stiffness(scene: Scene, timestep: float) -> tuple:
     return k_stretch, k_bend
 
 
-def static_strain(scene: Scene, timestep: float) -> float:
-    """The largest static strain of the stretch springs at MuJoCo ``timestep`` (s) under the scene's load,
-    :attr:`~mjcable.scene.Scene.max_tension` / (k₁ l₀)."""
+def static_strain(scene: Scene, timestep: float) -> Optional[float]:
+    """The largest static strain of the stretch springs at MuJoCo ``timestep`` (s) under the cable's weight along it
+    and the bodies hung on its pins (:func:`mjcable.solvers.convergence.static_strain`; a hanging catenary carries
+    about 1.2 times that at its pins); ``None`` where no pin holds the cable."""
     k_stretch = _stiffness(scene, timestep)[0]
-    return scene.max_tension / (k_stretch * scene.cable.segment_length)
+    return convergence.static_strain(scene, 1.0 / k_stretch, hung=convergence.hung_masses(scene))
 
 
 def precheck(scene: Scene, settings, dt: float) -> None:
@@ -97,11 +100,11 @@ def precheck(scene: Scene, settings, dt: float) -> None:
         return  # an elastic cable's springs are its E·A, or capped with their own warning at build
     timestep = dt / settings.substeps
     strain = static_strain(scene, timestep)
-    if strain > STRAIN_WARNING:
+    if strain is not None and strain > STRAIN_WARNING:
         need = math.ceil(settings.substeps * math.sqrt(strain / STRAIN_WARNING))
         warnings.warn(f"springs: the inextensible cable's springs, capped at the stable stiffness for timestep "
-                      f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under the scene's load of "
-                      f"{scene.max_tension:.4g} N (beyond {STRAIN_WARNING:g}); use substeps >= {need} at dt={dt:g} s, or a model with "
+                      f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under its weight (beyond "
+                      f"{STRAIN_WARNING:g}); use substeps >= {need} at dt={dt:g} s, or a model with "
                       f"inextensible segments", PhysicsWarning, stacklevel=4)
 
 

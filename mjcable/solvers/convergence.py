@@ -39,7 +39,8 @@ from mjcable.scene import Scene
 from mjcable.solvers.settings import ParticleSettings
 from mjcable.solvers.state import Rules
 
-__all__ = ["Rows", "sweep_map", "static_response", "bending_fraction", "stretch_strain", "MAX_SEGMENTS"]
+__all__ = ["Rows", "sweep_map", "static_response", "bending_fraction", "stretch_strain", "static_strain",
+           "hung_masses", "MAX_SEGMENTS"]
 
 MAX_SEGMENTS = 400  # the longest chain analysed (a dense map of about 3n × 3n entries, raised by squaring)
 _RIGID = 1e-9  # a lowest eigenvalue of K below this fraction of its largest diagonal term is a rigid motion
@@ -161,6 +162,17 @@ def static_response(p: np.ndarray, free: np.ndarray, load: np.ndarray, h: float)
     return y
 
 
+def hung_masses(scene: Scene) -> np.ndarray:
+    """``(n + 1,)`` kg: what bodies hang on each particle through its body pins, their
+    :attr:`~mjcable.scene.Scene.hanging_weights` over |g|."""
+    hung = np.zeros(scene.cable.n_particles)
+    g = float(np.linalg.norm(scene.gravity))
+    if g > 0.0:
+        for k, weight in enumerate(scene.hanging_weights):
+            hung[scene.pin_particle(k)] += weight / g
+    return hung
+
+
 def _chain(scene: Scene, hung: np.ndarray) -> tuple:
     """``(w (n + 1,), mass (n + 1,), free (n + 1,) bool)``: the cable's inverse masses with its pinned particles held,
     except where a body hangs ``hung`` kg on one (then free, carrying that mass)."""
@@ -278,7 +290,33 @@ def stretch_strain(scene: Scene, rules: Rules, settings: ParticleSettings, h: fl
     count = _counts(n, rules.bending, _clamps(scene))  # Jacobi averages over every chain row, bending's included
     p = sweep_map(rows, w, h, order=settings.order, iterations=settings.iterations, omega=settings.omega, count=count)
     strain = np.diff(static_response(p, free, load, h)) / l0
-    if rules.alpha_stretch > 0.0:  # the stated compliance, solved exactly
-        exact = sweep_map(dataclasses.replace(rows, k=np.ones(n)), w, h, order="direct", iterations=1)
-        strain -= np.diff(static_response(exact, free, load, h)) / l0
-    return float(np.max(np.abs(strain)))
+    return float(np.max(np.abs(strain - _stated_strains(scene, rules.alpha_stretch, mass, free))))
+
+
+def _stated_strains(scene: Scene, alpha: float, mass: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """``(n,)`` the segments' static strains of a straight chain of stretch compliance ``alpha`` (m/N) under its
+    weight along it, held at its held particles: K y = M a, K = Gᵀ G / α."""
+    n, l0 = scene.cable.n_segments, scene.cable.segment_length
+    if alpha <= 0.0:
+        return np.zeros(n)
+    diagonal = np.full(n + 1, 2.0 / alpha)
+    diagonal[[0, -1]] = 1.0 / alpha
+    index = np.flatnonzero(free)
+    band = np.zeros((3, len(index)))  # K over the free particles: tridiagonal
+    band[1] = diagonal[index]
+    band[0, 1:] = band[2, :-1] = np.where(np.diff(index) == 1, -1.0 / alpha, 0.0)
+    y = np.zeros(n + 1)
+    y[free] = linalg.solve_banded((1, 1), band, mass[free] * float(np.linalg.norm(scene.gravity)))
+    return np.diff(y) / l0
+
+
+def static_strain(scene: Scene, compliance: float, *, hung: Optional[np.ndarray] = None) -> Optional[float]:
+    """The largest static strain of the cable as a straight chain of stretch springs of ``compliance`` (m/N, 1/k)
+    under its weight along it (and ``hung`` (n + 1,) kg on its pins), held by its pins: what a converged model with
+    that stretch stiffness gives (m g / 2 at each end of a cable held at both; a hanging catenary carries about 1.2
+    times that at its pins). ``None`` where no pin holds the cable."""
+    hung = np.zeros(scene.cable.n_particles) if hung is None else hung
+    _, mass, free = _chain(scene, hung)
+    if free.all():
+        return None
+    return float(np.max(np.abs(_stated_strains(scene, compliance, mass, free))))
