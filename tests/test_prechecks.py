@@ -107,13 +107,19 @@ def test_a_substep_that_drops_a_particle_more_than_a_segment_warns_with_the_subs
 
 
 def test_the_fall_rule_marks_where_xpbd_stops_holding_an_inextensible_cable():
-    """dt = 0.5 s, 4 substeps (|g| h² = 7.7 l₀): the hang comes back 50 % long; at the substeps the warning gives it
-    holds its length."""
+    """dt = 0.5 s, 4 substeps (|g| h² = 7.7 l₀): the hang came back 50 % long (now the physics monitor stops it); at
+    the substeps the warning gives it holds its length."""
     scene = mjcable.scenes.get("hang", damping=2.0)
     lengths = {}
     for substeps in (4, math.ceil(0.5 / math.sqrt(scene.cable.segment_length / 9.81))):
         sim, _ = _build(scene, "xpbd", dt=0.5, substeps=substeps)
-        sim.step(3.0)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", PhysicsWarning)  # the monitor's strain warning
+                sim.step(3.0)
+        except mjcable.SimulationDivergedError:
+            lengths[substeps] = math.inf
+            continue
         lengths[substeps] = np.linalg.norm(np.diff(sim.positions, axis=0), axis=1).sum() / scene.cable.length
     coarse, fine = lengths.values()
     assert coarse > 1.1 and abs(fine - 1.0) < 0.01, lengths
