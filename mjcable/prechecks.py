@@ -38,7 +38,7 @@ from typing import Optional
 
 import numpy as np
 
-from mjcable import catalog
+from mjcable import _validate, catalog
 from mjcable.errors import PhysicsWarning
 from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import convergence
@@ -88,8 +88,8 @@ def _ignored(scene: Scene, entry: catalog.ModelEntry, settings) -> None:
               f"that use it: {users}")
     if cable.young > 0.0 and getattr(settings, "bending", None) == "distance" and (
             hasattr(settings, "bend_factor") and settings.bend_factor is None):
-        _warn(f"{entry.name}: CableSpec.young = {cable.young:g} Pa is ignored: bending='distance' is the (i, i+2) stick "
-              f"with bend_factor 1 (rigid), not E·I; use bending='curvature' (its stiffness from E·I) or set "
+        _warn(f"{entry.name}: CableSpec.young = {cable.young:g} Pa is ignored: bending='distance' is the (i, i+2) "
+              f"stick with bend_factor 1 (rigid), not E·I; use bending='curvature' (its stiffness from E·I) or set "
               f"bend_factor")
 
 
@@ -100,11 +100,13 @@ def _fall(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
     g = float(np.linalg.norm(scene.gravity))
     l0 = scene.cable.segment_length
     if g * h * h > l0:
-        need = math.ceil(dt / math.sqrt(l0 / g))
+        longest = math.sqrt(l0 / g)
+        need = math.ceil(dt / longest)
+        fix = "a smaller dt" if need > _validate.MAX_SUBSTEPS else f"substeps >= {need} at dt={dt:g} s, or a smaller dt"
         _warn(f"{entry.name}: gravity moves a free particle |g| h² = {g * h * h:.3g} m in one substep (h = dt / "
               f"substeps = {h:.3g} s), more than a segment ({l0:.3g} m): one substep's constraints and contacts no "
-              f"longer follow the cable, which stretches, passes through obstacles or diverges; use substeps >= {need} "
-              f"at dt={dt:g} s (h <= sqrt(l₀ / |g|) = {math.sqrt(l0 / g):.3g} s), or a smaller dt")
+              f"longer follow the cable, which stretches, passes through obstacles or diverges; the substep must be at "
+              f"most sqrt(l₀ / |g|) = {longest:.3g} s: use {fix}")
 
 
 def _stated_bending(scene: Scene, rules, settings) -> Optional[float]:
@@ -136,7 +138,7 @@ def _more_substeps(settings, measure, good) -> Optional[int]:
     """The fewest substeps, doubling from ``settings.substeps`` up to :data:`MAX_SUBSTEP_FACTOR` times them, whose
     ``measure(settings)`` is ``good``; ``None`` if none is."""
     factor = 2
-    while factor <= MAX_SUBSTEP_FACTOR:
+    while factor <= MAX_SUBSTEP_FACTOR and settings.substeps * factor <= _validate.MAX_SUBSTEPS:
         trial = dataclasses.replace(settings, substeps=settings.substeps * factor)
         if good(measure(trial)):
             return trial.substeps

@@ -33,7 +33,7 @@ import numpy as np
 
 __all__ = ["World", "load", "Depth"]
 
-_RELATIVE_ROUND_OFF = 1e-9  # relative: a generalised force or a Jacobian column this small (of the largest) is zero
+_RELATIVE_ROUND_OFF = 1e-9  # relative: a Jacobian column this small (of the largest entry, or 1) moves nothing
 
 WorldLike = Union[str, "os.PathLike[str]", mujoco.MjSpec]
 
@@ -169,7 +169,10 @@ class World:
                 if i in held or i in skip.get(int(m.geom_bodyid[g]), ()):
                     continue
                 d.geom_xpos[probe] = points[i]
-                distance = mujoco.mj_geomDistance(m, d, probe, g, radius, None)
+                try:
+                    distance = mujoco.mj_geomDistance(m, d, probe, g, radius, None)
+                except (mujoco.FatalError, ValueError):  # a geom type MuJoCo measures no distance to
+                    break
                 if distance < 0.0 and (deepest is None or -distance > deepest.depth):
                     deepest = Depth(depth=-distance, particle=int(i), geom=_name(m, mujoco.mjtObj.mjOBJ_GEOM, g),
                                     body=_name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g])))

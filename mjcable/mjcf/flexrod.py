@@ -372,8 +372,8 @@ def _check_self_collision(scene: Scene, self_collision: bool) -> None:
 def _fix(scene: Scene, timestep: float) -> str:
     """The fix of a timestep beyond :func:`max_timestep`."""
     longest = max_timestep(scene)
-    return (f"use {math.ceil(timestep / longest - _SUBSTEP_SLACK)} times the substeps, for a MuJoCo timestep of at most "
-            f"{longest:.3g} s (flexrod.stable_substeps(scene, dt))")
+    return (f"use {math.ceil(timestep / longest - _SUBSTEP_SLACK)} times the substeps, for a MuJoCo timestep of at "
+            f"most {longest:.3g} s (flexrod.stable_substeps(scene, dt))")
 
 
 def _check_stability(scene: Scene, timestep: float, stacklevel: int) -> None:

@@ -33,6 +33,7 @@ from typing import Optional
 import mujoco
 import numpy as np
 
+from mjcable._validate import MAX_SUBSTEPS
 from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
@@ -102,10 +103,12 @@ def precheck(scene: Scene, settings, dt: float) -> None:
     strain = static_strain(scene, timestep)
     if strain is not None and strain > STRAIN_WARNING:
         need = math.ceil(settings.substeps * math.sqrt(strain / STRAIN_WARNING))
+        fix = (f"substeps >= {need} at dt={dt:g} s" if need <= MAX_SUBSTEPS else
+               f"a smaller dt (a MuJoCo timestep of at most {dt / need:.3g} s)")
         warnings.warn(f"springs: the inextensible cable's springs, capped at the stable stiffness for timestep "
                       f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under its weight (beyond "
-                      f"{STRAIN_WARNING:g}); use substeps >= {need} at dt={dt:g} s, or a model with "
-                      f"inextensible segments", PhysicsWarning, stacklevel=4)
+                      f"{STRAIN_WARNING:g}); use {fix}, or a model with inextensible segments", PhysicsWarning,
+                      stacklevel=4)
 
 
 def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
