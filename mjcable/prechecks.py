@@ -163,8 +163,9 @@ def _iterations(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) ->
         fixes = [] if settings.order == "direct" else ["order='direct' (the stretch chain solved at once)"]
         if need is not None:
             fixes.append(f"substeps >= {need}")
-        _warn(f"{entry.name}: with {how}, the constraint iterations leave the inextensible cable a static strain of "
-              f"about {expected:.3g} under its weight (beyond {STRAIN_WARNING:g}); use "
+        _warn(f"{entry.name}: with {how}, the constraint iterations leave the cable a static strain of about "
+              f"{expected:.3g} under its weight beyond what its stated stretch gives (none for an inextensible cable; "
+              f"warned beyond {STRAIN_WARNING:g}); use "
               f"{' or '.join(fixes) or 'a smaller dt'}")
 
     def fraction(s):
