@@ -35,12 +35,12 @@ from mjcable.backends.native import NativeBackend, spec_builder
 from mjcable.backends.particle import ParticleBackend, proxy_builder
 from mjcable.mjcf import composite, flexrod, joints, springs
 from mjcable.mjcf.settings import CompositeSettings, FlexrodSettings, JointsSettings, SpringsSettings
-from mjcable.scene import Scene
+from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import jakobsen, pbd, xpbd
 from mjcable.solvers.settings import JakobsenSettings, PBDSettings, XPBDSettings
 
 __all__ = ["ModelEntry", "FAMILIES", "register", "unregister", "get", "names", "unavailable", "check_model",
-           "make_settings", "build", "check_dt", "check_substep", "MIN_DT"]
+           "make_settings", "build", "check_dt", "check_substep", "honouring", "MIN_DT"]
 
 FAMILIES = ("native", "particle")
 
@@ -57,6 +57,10 @@ class ModelEntry:
       backend: ``(scene, entry, dt, settings) -> Backend`` (:class:`mjcable.backends.protocol.Backend`).
       rules: particle models only: ``(scene, settings, h) -> Rules``, the kernels' parameters.
       summary: one line for listings.
+      ignores: the cable's properties the model does not use, as ``(CableSpec field, what the model does instead)``
+        pairs (a mapping is taken too); a Simulator warns when a scene sets one (:mod:`mjcable.prechecks`).
+      check: ``(scene, settings, dt) -> None`` or ``None``: the model's own stability rules, checked when a Simulator
+        is made (warning with :class:`~mjcable.errors.PhysicsWarning`, or raising ``ValueError``).
     """
 
     name: str
@@ -66,6 +70,8 @@ class ModelEntry:
     backend: Callable[..., Any]
     rules: Optional[Callable] = None
     summary: str = ""
+    ignores: tuple = ()
+    check: Optional[Callable] = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
@@ -78,6 +84,17 @@ class ModelEntry:
                 raise ValueError(f"{field} must be callable, got {getattr(self, field)!r}")
         if self.family == "particle" and not callable(self.rules):
             raise ValueError(f"rules must be callable for a particle model, got {self.rules!r}")
+        fields = {f.name for f in dataclasses.fields(CableSpec)}
+        try:
+            ignores = tuple((str(k), str(v)) for k, v in dict(self.ignores).items())
+        except (TypeError, ValueError):
+            ignores = None
+        if ignores is None or not {k for k, _ in ignores} <= fields:
+            raise ValueError(f"ignores must pair CableSpec fields {sorted(fields)} with what the model does instead, "
+                             f"got {self.ignores!r}")
+        object.__setattr__(self, "ignores", ignores)  # a tuple: entries pickle and hash
+        if self.check is not None and not callable(self.check):
+            raise ValueError(f"check must be callable or None, got {self.check!r}")
 
 
 _REGISTRY: Dict[str, ModelEntry] = {}
@@ -111,6 +128,11 @@ def unavailable() -> Dict[str, str]:
     """``{name: reason}`` of the built-in models that the installed MuJoCo cannot run (not registered): on MuJoCo 4,
     ``composite`` (no cable plugin); empty on MuJoCo 3.x."""
     return dict(_UNAVAILABLE)
+
+
+def honouring(field: str) -> tuple:
+    """Names of the registered models that use the ``CableSpec`` field ``field`` (not in their ``ignores``)."""
+    return tuple(n for n, e in _REGISTRY.items() if field not in dict(e.ignores))
 
 
 def check_model(name) -> str:
@@ -207,10 +229,12 @@ for _module, _settings, _summary, _missing in (
         _UNAVAILABLE[_module.__name__.rsplit(".", 1)[1]] = _missing
         continue
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="native", settings=_settings,
-                        build=spec_builder(_module.build), backend=NativeBackend, summary=_summary))
+                        build=spec_builder(_module.build), backend=NativeBackend, summary=_summary,
+                        ignores=getattr(_module, "IGNORES", {}), check=getattr(_module, "precheck", None)))
 for _module, _settings, _summary in (
         (jakobsen, JakobsenSettings, "Jakobsen's Verlet relaxation"),
         (pbd, PBDSettings, "Position Based Dynamics"),
         (xpbd, XPBDSettings, "Extended Position Based Dynamics, direct (banded) order")):
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="particle", settings=_settings,
-                        build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary))
+                        build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary,
+                        ignores=getattr(_module, "IGNORES", {})))

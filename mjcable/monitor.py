@@ -55,7 +55,6 @@ LIMITS = np.dtype([("dt", "f8"), ("max_distance", "f8"), ("max_speed", "f8"), ("
 _CHECK_NAMES = {CHECK_NON_FINITE: "non-finite", CHECK_DISTANCE: "run-off", CHECK_SPEED: "speed",
                 CHECK_VELOCITY: "velocity", CHECK_PIN: "torn pin", CHECK_STRAIN: "strain", WARN_STRAIN: "strain",
                 WARN_DEPTH: "depth"}
-_ELASTIC = ("springs", "flexrod", "xpbd")  # the models whose stretch is E·A (stretch_stiffness)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,25 +95,17 @@ class Breach:
     warning: bool = False
 
 
-def _load(scene: Scene) -> float:
-    """N: the weight a cable of ``scene`` may carry at rest: its own, plus the subtree of every body it holds."""
-    g = float(np.linalg.norm(scene.gravity))
-    mass = scene.cable.mass
-    if scene.world is not None:
-        for pin in scene.pins:
-            if pin.kind == "body":
-                mass += float(scene.world.model.body_subtreemass[scene.world.body_id(pin.body)])
-    return mass * g
-
-
 def limits(scene: Scene, model: str) -> Limits:
     """The limits of ``model`` (a catalogue name) on ``scene``'s cable (see the module docstring)."""
+    from mjcable import catalog  # the catalogue's backends import this module
+
     cable = scene.cable
-    ea = cable.stretch_stiffness if model in _ELASTIC else None
-    static = 0.0 if ea is None else _load(scene) / ea
+    ea = cable.stretch_stiffness if model in catalog.honouring("stretch_stiffness") else None
+    static = 0.0 if ea is None else scene.max_tension / ea  # the weight it may carry: its own and its bodies'
     return Limits(strain_warn=max(STRAIN_TOLERANCE, ELASTIC_MARGIN * static),
                   strain_fail=max(STRAIN_FAIL, 2.0 * ELASTIC_MARGIN * static),
-                  tear=max(cable.segment_length, TEAR_FRACTION * cable.segment_length * cable.n_segments), static_strain=static)
+                  tear=max(cable.segment_length, TEAR_FRACTION * cable.segment_length * cable.n_segments),
+                  static_strain=static)
 
 
 def limits_record(lim: Limits, dt: float) -> np.ndarray:

@@ -36,11 +36,15 @@ __all__ = [
     "MAX_SEGMENTS",
     "START_CONTACT_TOLERANCE",
     "BODY_PIN_TOLERANCE",
+    "BODY_PIN_REACH",
 ]
 
 GRAVITY = np.array([0.0, 0.0, -9.81])  # m/s²
 PIN_KINDS = ("world", "gripper", "socket", "body")
 BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
+# particles either side of a body pin that never touch the pin's body: the cable's end starts touching (or inside)
+# the body it is fastened to
+BODY_PIN_REACH = 2
 # The most segments a cable may have. The start state is resampled at construction (about 4 s for 10⁵ segments on
 # one core, linear in n) and its equal chords hold to n·ε·|x| (1e-11 m, 1e-6 of a chord, for a 1 m cable of 10⁵
 # segments): beyond that resampling is slow and its round-off starts to show as strain. No model is practical
@@ -112,8 +116,8 @@ class CableSpec:
         # to a segment up to round-off is not larger
         if self.radius > self.segment_length * (1.0 + _ROUND_OFF):
             warnings.warn(f"radius = {self.radius:g} m is larger than a segment ({self.segment_length:.3g} m, "
-                          f"{self.n_segments} segments): neighbouring capsules overlap, so contacts and "
-                          f"self-collision are unreliable; use fewer segments or a thinner cable", stacklevel=3)
+                          f"{self.n_segments} segments): neighbouring capsules overlap, so contacts are "
+                          f"unreliable; use fewer segments or a thinner cable", stacklevel=3)
 
     @functools.cached_property
     def curve(self) -> spline.CatmullRom:
@@ -134,6 +138,14 @@ class CableSpec:
     def segment_length(self) -> float:
         """Rest length of one segment in metres (the equal chord)."""
         return float(np.mean(np.linalg.norm(np.diff(self.particles, axis=0), axis=1)))
+
+    def overlapping_neighbours(self, *, spheres: bool = False) -> int:
+        """How far along the straight cable at rest its geoms overlap their neighbours: the largest k for which
+        capsules of segments i and i + k overlap ((k − 1) l₀ < 2 r), or with ``spheres`` those at particles i and
+        i + k (k l₀ < 2 r); at least 1 (the direct neighbour, which always touches). Self-collision skips these
+        pairs: contacts of geoms that overlap at rest would push them apart and stretch the cable."""
+        gap = 2.0 * self.radius / self.segment_length * (1.0 - _ROUND_OFF)
+        return max(1, math.ceil(gap) - 1 if spheres else math.ceil(gap))
 
     @property
     def length(self) -> float:
@@ -355,6 +367,7 @@ class Scene:
 
             _set(self, "world", user_world.load(self.world, keyframe=self.keyframe))
             self._check_body_pins()
+            self._check_start_clear_of_world()
 
     def _check_body_pins(self) -> None:
         p = self.cable.particles
@@ -369,6 +382,38 @@ class Scene:
                     f"pins[{k}]: the point offset={pin.offset} of body {pin.body!r} starts at "
                     f"{np.round(point, 6).tolist()}, {miss:.4g} m from particle {i} at {np.round(p[i], 6).tolist()} "
                     f"(allowed: {BODY_PIN_TOLERANCE:g} m); move the cable's end or change the offset")
+
+    def _check_start_clear_of_world(self) -> None:
+        """Raise if the cable's surface starts more than :data:`START_CONTACT_TOLERANCE` inside a geom of the world
+        that it can collide with. A pinned particle may start inside a geom (a plug in its socket: its pin holds it),
+        and the particles within :data:`BODY_PIN_REACH` of a body pin never touch its body."""
+        n = self.cable.n_particles
+        ignore = [(pin.body, range(max(self.pin_particle(k) - BODY_PIN_REACH, 0),
+                                   min(self.pin_particle(k) + BODY_PIN_REACH + 1, n)))
+                  for k, pin in enumerate(self.pins) if pin.kind == "body"]
+        held = [self.pin_particle(k) for k in range(len(self.pins))]
+        deepest = self.world.start_depth(self.cable.particles, self.cable.radius, ignore, held)
+        if deepest is not None and deepest.depth > START_CONTACT_TOLERANCE:
+            i = deepest.particle
+            raise ValueError(
+                f"world geom {deepest.geom!r} (body {deepest.body!r}) holds the cable's start: particle {i} at "
+                f"{np.round(self.cable.particles[i], 6).tolist()} is {deepest.depth:.4g} m deep (the cable's radius "
+                f"{self.cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move the geom, "
+                f"the world's start pose (keyframe) or the cable's points")
+
+    @functools.cached_property
+    def hanging_weights(self) -> np.ndarray:
+        """``(len(pins),)`` N: the weight each body pin's body hangs on the cable at the start
+        (:meth:`mjcable.user_world.World.hanging_weight`; 0 for the other pins). The models' stability rules count it
+        in the cable's tension."""
+        return np.array([self.world.hanging_weight(pin.body, pin.offset) if pin.kind == "body" else 0.0
+                         for pin in self.pins], dtype=np.float64)
+
+    @property
+    def max_tension(self) -> float:
+        """N: a bound on the cable's static tension, its weight |g| m plus what bodies hang on its pins
+        (:attr:`hanging_weights`); the models' stability rules use it."""
+        return float(np.linalg.norm(self.gravity)) * self.cable.mass + float(np.sum(self.hanging_weights))
 
     @property
     def gravity(self) -> np.ndarray:

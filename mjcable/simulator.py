@@ -18,7 +18,7 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from mjcable import _validate, catalog, monitor
+from mjcable import _validate, catalog, monitor, prechecks
 from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
@@ -80,7 +80,13 @@ class Simulator:
         :class:`mjcable.solvers.settings.XPBDSettings`; :attr:`settings` holds them with the defaults filled in).
 
     Raises:
-      ValueError: an unknown model, a setting the model does not take, or a value out of range.
+      ValueError: an unknown model, a setting the model does not take, a value out of range, or a scene the model
+        cannot simulate.
+
+    Warns:
+      PhysicsWarning: what the model would get wrong about the scene at these settings, with the fix
+        (:mod:`mjcable.prechecks`: a cable property the model ignores, a substep beyond the model's stability rule,
+        a rod or chain that the solver's iterations leave softer than stated).
 
     Example::
 
@@ -102,9 +108,11 @@ class Simulator:
             raise ValueError(f"scene: the cable starts {far:.6g} m from the origin, beyond the {MAX_DISTANCE:g} m past "
                              "which a particle counts as run off (mjcable.simulator.MAX_DISTANCE); place the scene "
                              "nearer the origin")
+        prechecks.check(scene, entry, self.settings, self.dt)
         self.scene = scene
         self._grippers = scene.grippers
-        self._gripper_pins = np.array(scene.grippers, dtype=np.int64)  # step_along's default pins (numba: kept writable)
+        # step_along's default pins (numba: kept writable)
+        self._gripper_pins = np.array(scene.grippers, dtype=np.int64)
         self.model = model
         self.family = entry.family
         backend = entry.backend(scene, entry, self.dt, self.settings)
@@ -228,8 +236,8 @@ class Simulator:
             return 1
         seconds = _validate.number("seconds", seconds, low=0.0, unit="s")
         if (self._pending + seconds) / self.dt > MAX_STEPS:
-            raise ValueError(f"seconds = {seconds:g} is {seconds / self.dt:.3g} steps of dt = {self.dt:g} s, beyond the "
-                             f"{MAX_STEPS:.0e} steps one call may take (mjcable.simulator.MAX_STEPS: days of wall "
+            raise ValueError(f"seconds = {seconds:g} is {seconds / self.dt:.3g} steps of dt = {self.dt:g} s, beyond "
+                             f"the {MAX_STEPS:.0e} steps one call may take (mjcable.simulator.MAX_STEPS: days of wall "
                              "time at any model's speed); step in shorter calls")
         self._pending += seconds
         count = int(math.floor(self._pending / self.dt + _STEP_EPS))

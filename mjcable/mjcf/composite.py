@@ -64,8 +64,10 @@ from mjcable.mjcf import joints, snap, world
 from mjcable.scene import Scene
 
 __all__ = ["build", "add_cable", "missing_plugin", "body_name", "joint_name", "plugin_moduli", "POISSON", "PREFIX",
-           "PLUGIN", "INSTANCE", "BENDING_ALTERNATIVES"]
+           "PLUGIN", "INSTANCE", "BENDING_ALTERNATIVES", "IGNORES"]
 
+#: the cable's properties this model does not use (:attr:`mjcable.catalog.ModelEntry.ignores`)
+IGNORES = joints.IGNORES  # the same rigid segments
 POISSON = 0.5  # Poisson's ratio ν of the cable, for the plugin's shear modulus G = E / (2 (1 + ν))
 PREFIX = "cable"
 PLUGIN = "mujoco.elasticity.cable"
@@ -173,6 +175,8 @@ def add_cable(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, self_collis
     spec.body(body_name(n - 1, n)).add_site(name=world.particle_site(order[n]), pos=[l0, 0.0, 0.0])
     for i in range(n - 1):
         spec.add_exclude(bodyname1=body_name(i, n), bodyname2=body_name(i + 1, n))
+    if self_collision:
+        world.exclude_overlapping(spec, scene, [body_name(i, n) for i in range(n)], start=2)
     joints.add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
 
 

@@ -40,8 +40,14 @@ Mapping from the physical cable (MuJoCo 3.17; the numbers below were measured on
   equality is linearised at the start of each step, so a taut cable's geometric stiffness T / l₀ is explicit too:
   its zigzag mode has ω² = 4 T / (mᵢ l₀), stable while ``h < sqrt(mᵢ l₀ / T)``; with T = m g (a cable carrying its
   own weight) that is ``n < sqrt(L / g) / h``, about 160 segments for a 1 m cable at h = 0.002 s (measured on ``hang``,
-  whose top tension is 0.6 m g: 160 segments are stable, 200 fold up within 0.1 s). :func:`max_timestep` and
-  :func:`stable_substeps` apply both rules; :func:`build` warns when the timestep breaks one.
+  whose top tension is 0.6 m g: 160 segments are stable, 200 fold up within 0.1 s). T is the scene's
+  :attr:`~mjcable.scene.Scene.max_tension`: the cable's weight in the scene's gravity plus what bodies hang on its
+  pins (a 0.5 kg box on a 5 g, 20-segment cable needs h < 1.1 ms: measured, 1 ms holds, 2 ms stretches the cable
+  eightfold). :func:`max_timestep` and :func:`stable_substeps` apply both rules; :func:`build` warns
+  (:class:`~mjcable.errors.PhysicsWarning`) when the timestep breaks one.
+* self-collision: MuJoCo collides every two flex elements that share no vertex, so with a radius beyond half a
+  segment, elements i and i + 2 overlap at rest and push each other apart (the ``hang`` cable sags 7 mm lower at
+  0.75 l₀); :func:`build` refuses that (``ValueError``) with the largest radius and the most segments that work.
 * integrator: the world's (``implicitfast`` in the built-in scenes), except for a stiff cable (young > 0) on a
   MuJoCo that refuses flex bending under ``implicit``/``implicitfast`` (MuJoCo 4): then the spec steps with
   ``Euler``, a user world's included. The trajectories are the same: the only velocity-dependent forces of the
@@ -75,13 +81,15 @@ from scipy.spatial.transform import Rotation
 
 from mjcable.mjcf import snap, world
 from mjcable.mjcf.world import START_KEY
-from mjcable.scene import GRAVITY, Scene
+from mjcable.errors import PhysicsWarning
+from mjcable.scene import Scene
 
 __all__ = [
     "build",
     "add_cable",
     "vertex_body",
     "stable_substeps",
+    "precheck",
     "max_timestep",
     "uses_edge_springs",
     "FLEX",
@@ -95,8 +103,8 @@ EDGE_SOLREF_STEPS = 2.0  # edge-equality time constant in MuJoCo steps (the shor
 EDGE_SOLIMP = (mujoco.mjMAXIMP, mujoco.mjMAXIMP, 0.001, 0.5, 2.0)  # MuJoCo's stiffest impedance, 0.9999
 STRETCH_STABILITY_FRACTION = 0.5  # of the explicit limit mᵢ/h² that edge springs (plus bending) may use
 _EDGE_EQUALITY = f"{FLEX}_edges"
-_G = -float(GRAVITY[2])  # m/s²
 _SUBSTEP_SLACK = 1e-9  # forgives round-off when dt is an exact multiple of the longest stable timestep
+_ROUND_OFF = 1e-9  # relative: a radius equal to half a segment up to this is not larger
 _MARKER_GROUP = 3  # geom group hidden by default in MuJoCo's viewers
 _SPHERE_INERTIA = 0.4  # I = 2/5 m r² of a vertex body (slide joints only: it never rotates)
 _IMPLICIT = (mujoco.mjtIntegrator.mjINT_IMPLICIT, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
@@ -139,9 +147,13 @@ def _bending_load(scene: Scene) -> float:
 
 
 def _tension_timestep(scene: Scene) -> float:
-    """The longest stable timestep (s) of a cable taut under its own weight: ``sqrt(mᵢ l₀ / (m g))``."""
+    """The longest stable timestep (s) of a cable taut under the scene's load: ``sqrt(mᵢ l₀ / T)``, T the scene's
+    :attr:`~mjcable.scene.Scene.max_tension`."""
     cable = scene.cable
-    return math.sqrt(cable.mass / cable.n_segments * cable.segment_length / (cable.mass * _G))
+    tension = scene.max_tension
+    if tension <= 0.0:
+        return math.inf
+    return math.sqrt(cable.mass / cable.n_segments * cable.segment_length / tension)
 
 
 def uses_edge_springs(scene: Scene, timestep: float) -> bool:
@@ -156,7 +168,8 @@ def uses_edge_springs(scene: Scene, timestep: float) -> bool:
 
 def max_timestep(scene: Scene) -> float:
     """The longest MuJoCo timestep in seconds at which the stability rules (module docstring) hold: bending (and, for
-    a finite E·A, the edge springs) and the tension of a cable taut under its own weight."""
+    a finite E·A, the edge springs) and the tension of a cable taut under its weight and the bodies hung on its
+    pins."""
     cable = scene.cable
     mass = cable.mass / cable.n_segments
     load, fraction = _bending_load(scene), 1.0
@@ -219,6 +232,7 @@ def _add_cable(spec: mujoco.MjSpec, scene: Scene, timestep: float, self_collisio
     n = cable.n_particles
     stiff = cable.young > 0.0
     rest = _straight(scene) if stiff else cable.particles
+    _check_self_collision(scene, self_collision)
     _check_stability(scene, timestep, stacklevel)
     if stiff and spec.option.integrator in _IMPLICIT and not _implicit_flex_elasticity():
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
@@ -334,19 +348,50 @@ def _turn(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return rotation.as_quat(scalar_first=True)
 
 
+def precheck(scene: Scene, settings, dt: float) -> None:
+    """The catalogue's ``check``, before the model is built: self-collision that the flex cannot do
+    (``ValueError``). The stability rules warn when the model is built (:func:`build`)."""
+    del dt
+    _check_self_collision(scene, settings.self_collision)
+
+
+def _check_self_collision(scene: Scene, self_collision: bool) -> None:
+    """Refuse self-collision where flex elements i and i + 2 overlap at rest (radius beyond half a segment)."""
+    cable = scene.cable
+    if not self_collision or cable.radius <= 0.5 * cable.segment_length * (1.0 + _ROUND_OFF):
+        return
+    raise ValueError(
+        f"self_collision=True needs a radius of at most half a segment for flexrod, got radius={cable.radius:g} m "
+        f"with segments of {cable.segment_length:.4g} m: MuJoCo collides every two flex elements that share no "
+        f"vertex, so elements i and i + 2 would overlap at rest and push each other apart, stretching the cable; "
+        f"use a radius <= {0.5 * cable.segment_length:.4g} m for {cable.n_segments} segments, at most "
+        f"{max(int(cable.length / (2.0 * cable.radius) * (1.0 + _ROUND_OFF)), 1)} segments for this radius, or "
+        f"self_collision=False")
+
+
+def _fix(scene: Scene, timestep: float) -> str:
+    """The fix of a timestep beyond :func:`max_timestep`."""
+    longest = max_timestep(scene)
+    return (f"use {math.ceil(timestep / longest - _SUBSTEP_SLACK)} times the substeps, for a MuJoCo timestep of at "
+            f"most {longest:.3g} s (flexrod.stable_substeps(scene, dt))")
+
+
 def _check_stability(scene: Scene, timestep: float, stacklevel: int) -> None:
     cable = scene.cable
     if cable.stretch_stiffness is not None and not uses_edge_springs(scene, timestep):
         limit = STRETCH_STABILITY_FRACTION * _explicit_limit(scene, timestep)
         warnings.warn(f"flexrod: edge springs of E·A / l₀ = {cable.stretch_stiffness / cable.segment_length:.4g} N/m "
                       f"are unstable at timestep {timestep:g} s (limit {limit:.4g} N/m including bending); the "
-                      f"cable is modelled as inextensible instead", stacklevel=stacklevel)
+                      f"cable is modelled as inextensible instead (CableSpec.stretch_stiffness="
+                      f"{cable.stretch_stiffness:g} N is not used); for the elastic cable, {_fix(scene, timestep)}",
+                      PhysicsWarning, stacklevel=stacklevel)
     if _bending_load(scene) > _explicit_limit(scene, timestep):
         warnings.warn(f"flexrod: bending stiffness E·I = {cable.bending_stiffness:.4g} N·m² is unstable at timestep "
                       f"{timestep:g} s (MuJoCo integrates flex bending explicitly; stable below "
-                      f"{_explicit_limit(scene, timestep) * cable.segment_length**3 / 4:.4g} N·m²); use "
-                      f"flexrod.stable_substeps(scene, dt) substeps", stacklevel=stacklevel)
+                      f"{_explicit_limit(scene, timestep) * cable.segment_length**3 / 4:.4g} N·m²); "
+                      f"{_fix(scene, timestep)}", PhysicsWarning, stacklevel=stacklevel)
     if timestep > _tension_timestep(scene):
         warnings.warn(f"flexrod: {cable.n_segments} segments are too fine for timestep {timestep:g} s once the cable "
-                      f"is taut under its own weight (stable below {_tension_timestep(scene):.3g} s); use "
-                      f"flexrod.stable_substeps(scene, dt) substeps", stacklevel=stacklevel)
+                      f"is taut under its load of {scene.max_tension:.4g} N (its weight and the bodies hung on its "
+                      f"pins; stable below {_tension_timestep(scene):.3g} s); {_fix(scene, timestep)}", PhysicsWarning,
+                      stacklevel=stacklevel)

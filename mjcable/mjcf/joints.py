@@ -90,6 +90,7 @@ from mjcable.scene import Scene
 
 __all__ = [
     "build",
+    "IGNORES",
     "root_pin",
     "tree_order",
     "root_joint",
@@ -110,6 +111,8 @@ __all__ = [
     "WHIP_RELAXATION_STEPS",
 ]
 
+#: the cable's properties this model does not use (:attr:`mjcable.catalog.ModelEntry.ignores`)
+IGNORES = {"stretch_stiffness": "its segments are rigid, so the cable is inextensible"}
 STABLE_OMEGA_H = 1.0  # ω·h of the fastest joint-spring mode the armature allows (semi-implicit Euler's limit is 2)
 WHIP_ARMATURE = 10.0  # α of the ball-joint armature α·(m/n)·l₀² that tames the free-end whip
 WHIP_RELAXATION_STEPS = 20.0  # physics steps in which ball-joint damping relaxes the armature's relative spin
@@ -371,8 +374,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
 
     add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
     if self_collision:
-        for i in range(n - 1):
-            spec.add_exclude(bodyname1=body_name(i), bodyname2=body_name(i + 1))
+        world.exclude_overlapping(spec, scene, [body_name(i) for i in range(n)])
     if straight:  # the root is compiled in its start pose: identity root qpos, then the start shape's ball quats
         root = {"free": [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], "ball": [1.0, 0.0, 0.0, 0.0], None: []}[kind]
         _add_start_key(spec, scene, np.concatenate([root, rel.ravel()]))

@@ -15,8 +15,10 @@ Mapping from the physical cable:
   ω²_max ≤ 4 (k₁ + k₂) n / m for lumped masses, and semi-implicit Euler needs ω_max·h < 2, i.e.
   k₁ + k₂ < m / (n h²) with h MuJoCo's timestep. We use ``k₁ + k₂ = STABILITY_FRACTION · m / (n h²)``: an
   inextensible cable (``stretch_stiffness=None``) gets the largest k₁ the rule allows; a stiffer E·A (or E·I) is
-  capped there with a warning. The static strain under tension T is then T / (k₁ l₀) ∝ h², which is why the model
-  defaults to 10 MuJoCo steps per ``dt``;
+  capped there with a :class:`~mjcable.errors.PhysicsWarning`. The static strain under tension T is then
+  T / (k₁ l₀) ∝ h², which is why the model defaults to 10 MuJoCo steps per ``dt``; a Simulator warns when that
+  strain under the cable's weight and what bodies hang on its pins would exceed :data:`STRAIN_WARNING` for a
+  nominally inextensible cable (:func:`precheck`);
 * contacts: sphere geoms of the cable radius; the obstacles get a stiff contact time constant
   (:func:`mjcable.mjcf.world.stiffen_obstacle_contacts`), without which the spheres sink through a thin plate and
   chatter as they slide.
@@ -24,39 +26,89 @@ Mapping from the physical cable:
 
 from __future__ import annotations
 
+import math
 import warnings
+from typing import Optional
 
 import mujoco
 import numpy as np
 
+from mjcable._validate import MAX_SUBSTEPS
+from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
+from mjcable.solvers import convergence
 
-__all__ = ["build", "spring_stiffness", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE"]
+__all__ = ["build", "spring_stiffness", "precheck", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE",
+           "STRAIN_WARNING"]
 
 STABILITY_FRACTION = 0.25  # of the semi-implicit Euler limit k < m / (n h²); a chain just above it jitters
 BEND_REFERENCE_ANGLE = 1.0  # rad, where next-neighbour spring energy equals E·I θ² / (2 l₀)
+STRAIN_WARNING = 0.05  # static strain of a nominally inextensible cable beyond which a Simulator warns
 _AXES = np.eye(3)
 
 
-def spring_stiffness(scene: Scene, timestep: float) -> tuple:
-    """``(k_stretch, k_bend)`` in N/m for the cable at MuJoCo timestep ``timestep`` (see the module docstring)."""
+def _stiffness(scene: Scene, timestep: float) -> tuple:
+    """``(k_stretch, k_bend, wanted_stretch, wanted_bend)`` in N/m: the springs at MuJoCo timestep ``timestep``
+    (s) and what E·A and E·I asked for (``wanted_stretch`` None for an inextensible cable)."""
     cable = scene.cable
     l0 = cable.segment_length
     limit = STABILITY_FRACTION * cable.mass / (cable.n_segments * timestep**2)
-    k_bend = 16.0 * cable.bending_stiffness / (l0**3 * BEND_REFERENCE_ANGLE**2)
-    if k_bend > 0.5 * limit:
-        warnings.warn(f"springs: bending stiffness capped from {k_bend:.4g} to {0.5 * limit:.4g} N/m, the stable "
-                      f"limit at timestep {timestep:g} s; use more substeps for a stiffer cable", stacklevel=3)
-        k_bend = 0.5 * limit
-    k_stretch = limit - k_bend
-    if cable.stretch_stiffness is not None:
-        wanted = cable.stretch_stiffness / l0
-        if wanted > k_stretch:
-            warnings.warn(f"springs: stretch stiffness capped from {wanted:.4g} to {k_stretch:.4g} N/m, the stable "
-                          f"limit at timestep {timestep:g} s; use more substeps for a stiffer cable", stacklevel=3)
-        k_stretch = min(wanted, k_stretch)
+    wanted_bend = 16.0 * cable.bending_stiffness / (l0**3 * BEND_REFERENCE_ANGLE**2)
+    k_bend = min(wanted_bend, 0.5 * limit)
+    wanted_stretch = None if cable.stretch_stiffness is None else cable.stretch_stiffness / l0
+    k_stretch = limit - k_bend if wanted_stretch is None else min(wanted_stretch, limit - k_bend)
+    return k_stretch, k_bend, wanted_stretch, wanted_bend
+
+
+def _substeps_for(timestep: float, ratio: float) -> str:
+    """The fix: a timestep ``ratio`` times shorter, in substeps per ``dt``."""
+    return (f"use at least {math.ceil(ratio)} times the substeps (a MuJoCo timestep of at most "
+            f"{timestep / ratio:.3g} s)")
+
+
+def spring_stiffness(scene: Scene, timestep: float) -> tuple:
+    """``(k_stretch, k_bend)`` in N/m for the cable at MuJoCo timestep ``timestep`` (see the module docstring);
+    a spring capped at the stable limit warns (:class:`~mjcable.errors.PhysicsWarning`)."""
+    k_stretch, k_bend, wanted_stretch, wanted_bend = _stiffness(scene, timestep)
+    if wanted_bend > k_bend:
+        warnings.warn(f"springs: bending stiffness capped from {wanted_bend:.4g} to {k_bend:.4g} N/m, the stable "
+                      f"limit at timestep {timestep:g} s; {_substeps_for(timestep, math.sqrt(wanted_bend / k_bend))}",
+                      PhysicsWarning, stacklevel=3)
+    if wanted_stretch is not None and wanted_stretch > k_stretch:
+        limit = STABILITY_FRACTION * scene.cable.mass / (scene.cable.n_segments * timestep**2)
+        ratio = math.sqrt((wanted_stretch + min(wanted_bend, 0.5 * limit)) / limit)
+        warnings.warn(f"springs: stretch stiffness capped from {wanted_stretch:.4g} to {k_stretch:.4g} N/m, the stable "
+                      f"limit at timestep {timestep:g} s; {_substeps_for(timestep, ratio)}", PhysicsWarning,
+                      stacklevel=3)
     return k_stretch, k_bend
+
+
+def static_strain(scene: Scene, timestep: float) -> Optional[float]:
+    """The largest static strain of the stretch springs at MuJoCo ``timestep`` (s) under the cable's weight along it
+    and the bodies hung on its pins (:func:`mjcable.solvers.convergence.static_strain`; a hanging catenary carries
+    about 1.2 times that at its pins); ``None`` where no pin holds the cable."""
+    k_stretch = _stiffness(scene, timestep)[0]
+    return convergence.static_strain(scene, 1.0 / k_stretch, hung=convergence.hung_masses(scene))
+
+
+def precheck(scene: Scene, settings, dt: float) -> None:
+    """The model's rule at construction (the catalogue's ``check``): a nominally inextensible cable
+    (``stretch_stiffness=None``) whose springs, capped by the stability rule at MuJoCo's timestep ``dt /
+    substeps``, would stretch by more than :data:`STRAIN_WARNING` under the scene's load warns with the substeps that
+    bring it within (the strain falls with the timestep squared)."""
+    if scene.cable.stretch_stiffness is not None:
+        return  # an elastic cable's springs are its E·A, or capped with their own warning at build
+    timestep = dt / settings.substeps
+    strain = static_strain(scene, timestep)
+    if strain is not None and strain > STRAIN_WARNING:
+        need = math.ceil(settings.substeps * math.sqrt(strain / STRAIN_WARNING))
+        fix = (f"substeps >= {need} at dt={dt:g} s" if need <= MAX_SUBSTEPS else
+               f"a smaller dt (a MuJoCo timestep of at most {dt / need:.3g} s)")
+        warnings.warn(f"springs: the inextensible cable's springs, capped at the stable stiffness for timestep "
+                      f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under its weight (beyond "
+                      f"{STRAIN_WARNING:g}); use {fix}, or a model with inextensible segments", PhysicsWarning,
+                      stacklevel=4)
 
 
 def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
@@ -111,8 +163,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
             tendon.wrap_site(world.particle_site(i))
             tendon.wrap_site(world.particle_site(i + gap))
     if self_collision:
-        for i in range(n - 1):
-            spec.add_exclude(bodyname1=f"cable{i}", bodyname2=f"cable{i + 1}")
+        world.exclude_overlapping(spec, scene, [f"cable{i}" for i in range(n)], spheres=True)
     world.stiffen_obstacle_contacts(spec, scene, timestep)
     return snap.snap_spec(spec)
 

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mjcable import geometry
-from mjcable.scene import GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
+from mjcable.scene import BODY_PIN_REACH, GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
 
 __all__ = [
     "new_spec",
@@ -38,6 +38,7 @@ __all__ = [
     "user_names",
     "cable_geom",
     "add_anchor",
+    "exclude_overlapping",
     "add_connect",
     "add_clamp_anchor",
     "pinned_segments",
@@ -62,8 +63,7 @@ _FLOOR_HALF_SIZE = 5.0  # m, rendered extent of a Floor plane
 _CAMERA_FOVY = 45.0  # degrees
 _CAMERA_MARGIN = 1.35  # frame the cable's bounding box with this much room
 CONTACT_SOLREF_STEPS = 2.0  # stiff obstacle contact time constant in physics steps (MuJoCo's stable minimum)
-_PIN_SOLREF_STEPS = 2.0
-_PIN_EXCLUDE_REACH = 2  # particles either side of a body pin whose bodies never touch the pin's body  # equality time constant in physics steps (MuJoCo's stable minimum)
+_PIN_SOLREF_STEPS = 2.0  # equality time constant in physics steps (MuJoCo's stable minimum)
 _IMPRATIO = 10.0  # frictional-to-normal impedance ratio (MuJoCo's remedy for contact slip)
 PIN_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 
@@ -202,27 +202,27 @@ def finish(spec: mujoco.MjSpec, scene: Scene) -> mujoco.MjSpec:
 
 def pinned_segments(scene: Scene, body: str) -> set:
     """The cable segments (i between particles i and i + 1) that never touch user body ``body``: those within
-    ``_PIN_EXCLUDE_REACH`` particles of a body pin on it (the cable's end starts touching the body it is fastened
+    ``BODY_PIN_REACH`` particles of a body pin on it (the cable's end starts touching the body it is fastened
     to)."""
     near = set()
     n = scene.cable.n_segments
     for k, pin in enumerate(scene.pins):
         if pin.kind == "body" and pin.body == body:
             i = scene.pin_particle(k)
-            near.update(range(max(i - _PIN_EXCLUDE_REACH, 0), min(i + _PIN_EXCLUDE_REACH, n)))
+            near.update(range(max(i - BODY_PIN_REACH, 0), min(i + BODY_PIN_REACH, n)))
     return near
 
 
 def _exclude_pinned_bodies(spec: mujoco.MjSpec, scene: Scene) -> None:
     """No contacts between a body pin's body and the cable bodies holding the particles within
-    ``_PIN_EXCLUDE_REACH`` of its particle: the cable's end starts touching the body it is fastened to."""
+    ``BODY_PIN_REACH`` of its particle: the cable's end starts touching the body it is fastened to."""
     n = scene.cable.n_particles
     pairs = set()
     for k, pin in enumerate(scene.pins):
         if pin.kind != "body":
             continue
         i = scene.pin_particle(k)
-        for j in range(max(i - _PIN_EXCLUDE_REACH, 0), min(i + _PIN_EXCLUDE_REACH, n - 1) + 1):
+        for j in range(max(i - BODY_PIN_REACH, 0), min(i + BODY_PIN_REACH, n - 1) + 1):
             site = spec.site(particle_site(j))
             body = site.parent.name if site is not None else ""
             if body and body != pin.body and (pin.body, body) not in pairs:
@@ -314,6 +314,16 @@ def cable_geom(scene: Scene, *, self_collision: bool = False) -> dict:
         friction=[scene.cable.friction, *_TORSION_ROLL_FRICTION], condim=3, material="cable",
         contype=CABLE_CONTYPE, conaffinity=OBSTACLE_CONTYPE | (CABLE_CONTYPE if self_collision else 0),
     )
+
+
+def exclude_overlapping(spec: mujoco.MjSpec, scene: Scene, bodies: list, *, spheres: bool = False,
+                        start: int = 1) -> None:
+    """No contacts between the cable's bodies ``bodies`` (names in chain order) whose geoms overlap at rest:
+    neighbours ``start`` .. :meth:`~mjcable.scene.CableSpec.overlapping_neighbours` apart (capsules, or spheres at
+    the particles). For self-collision: overlapping geoms would push each other apart and stretch the cable."""
+    for k in range(start, scene.cable.overlapping_neighbours(spheres=spheres) + 1):
+        for i in range(len(bodies) - k):
+            spec.add_exclude(bodyname1=bodies[i], bodyname2=bodies[i + k])
 
 
 def add_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position=None) -> str:

@@ -16,11 +16,14 @@ E·A is not used.
 from __future__ import annotations
 
 from mjcable.scene import Scene
-from mjcable.solvers.pbd import bending_rules
+from mjcable.solvers.pbd import FACTOR_STRETCH, bending_rules
 from mjcable.solvers.settings import ParticleSettings
 from mjcable.solvers.state import Rules
 
-__all__ = ["rules"]
+__all__ = ["rules", "IGNORES"]
+
+#: the cable's properties this model does not use (:attr:`mjcable.catalog.ModelEntry.ignores`)
+IGNORES = {"stretch_stiffness": FACTOR_STRETCH}
 
 
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:

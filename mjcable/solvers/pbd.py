@@ -30,7 +30,13 @@ from mjcable.solvers.settings import ParticleSettings, bending_kind
 from mjcable.solvers.state import Rules
 from mjcable.solvers.user_constraints import UserConstraint, iteration_factor
 
-__all__ = ["rules", "UserConstraint", "iteration_factor", "derived_bend_factor"]
+__all__ = ["rules", "UserConstraint", "iteration_factor", "derived_bend_factor", "IGNORES", "FACTOR_STRETCH"]
+
+#: what the stiffness-based solvers (``pbd``, ``jakobsen``) make of the stretch instead of the cable's E·A
+FACTOR_STRETCH = ("its stretch is the dimensionless factor stretch_factor k in [0, 1] (hard at k = 1, softened by k "
+                  "and by unconverged iterations), not E·A")
+#: the cable's properties this model does not use (:attr:`mjcable.catalog.ModelEntry.ignores`)
+IGNORES = {"stretch_stiffness": FACTOR_STRETCH}
 
 _INTERIOR_BEND_WEIGHT = 6.0  # Σ (1, −2, 1)² of the curvature constraint's gradient, times w / l₀⁴
 

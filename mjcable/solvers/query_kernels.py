@@ -41,6 +41,7 @@ __all__ = ["find_self_contacts", "self_contacts", "query_holds", "contacts_from_
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction
 _PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
+_ROUND_OFF = 1e-9  # relative: a radius equal to half a segment up to this does not overlap its neighbours
 # A contact this close to a segment's end (as a fraction of it) acts at the particle (20 µm on a 2 cm segment). MuJoCo
 # puts the end contacts of a capsule lying on a flat face up to a few 1e-5 of the segment off its ends (the table
 # scene at rest), so that a fraction of 1e-9 kept most pairs of the neighbouring capsules' contacts at one particle
@@ -67,8 +68,9 @@ def segment_closest(a, e, f, c, d1d2):
 
 
 @_nogil
-def find_self_contacts(x, reach, pair, st, normal):
-    """Pairs of non-adjacent segments (|i − j| ≥ 2, each pair once) whose axes are closer than ``reach`` metres;
+def find_self_contacts(x, reach, first, pair, st, normal):
+    """Pairs of segments at least ``first`` (>= 2) apart (j − i ≥ first, each pair once) whose axes are closer than
+    ``reach`` metres;
     fills ``pair`` (cap, 2), the fractions (s, t) of their closest points into ``st`` (cap, 2) and the unit normal
     from segment j to segment i into ``normal`` (cap, 3).
     Returns the number found, or −1 if more than ``cap`` (the caller grows the buffers and asks again)."""
@@ -82,7 +84,7 @@ def find_self_contacts(x, reach, pair, st, normal):
     count = 0
     cap = pair.shape[0]
     for i in range(nseg):
-        for j in range(i + 2, nseg):
+        for j in range(i + first, nseg):
             if (lo[i, 0] > hi[j, 0] + reach or lo[j, 0] > hi[i, 0] + reach or lo[i, 1] > hi[j, 1] + reach
                     or lo[j, 1] > hi[i, 1] + reach or lo[i, 2] > hi[j, 2] + reach or lo[j, 2] > hi[i, 2] + reach):
                 continue
@@ -243,8 +245,12 @@ def reserve_contacts(S, capacity):
 def self_contacts(S, reach):
     """Self contacts of the chain ``S.x`` closer than ``reach`` metres (:func:`find_self_contacts`) into
     ``S.self_pair``, ``S.self_st``, ``S.self_normal`` (the self-contact buffers, grown together until they hold them
-    all); returns their number."""
-    count = find_self_contacts(S.x, reach, S.self_pair, S.self_st, S.self_normal)
+    all); returns their number. Segments whose capsules overlap at rest never touch: those closer along the chain
+    than the cable's diameter, (j − i − 1) l₀ < 2 r (:meth:`mjcable.scene.CableSpec.overlapping_neighbours`), which
+    would push each other apart and stretch the cable."""
+    first = int(math.ceil(2.0 * S.par[0].radius / S.rest[0] * (1.0 - _ROUND_OFF))) + 1
+    first = max(first, 2)
+    count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal)
     while count < 0:
         cap = max(2 * S.self_pair.shape[0], 1)
         S.self_pair = np.zeros((cap, 2), dtype=np.int64)
@@ -252,7 +258,7 @@ def self_contacts(S, reach):
         S.self_normal = np.zeros((cap, 3))
         S.self_lam_n = np.zeros(cap)
         S.self_lam_t = np.zeros(cap)
-        count = find_self_contacts(S.x, reach, S.self_pair, S.self_st, S.self_normal)
+        count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal)
     return count
 
 

@@ -1,0 +1,197 @@
+"""Checks before the first step: what a model would get wrong about a scene without a word, said when the Simulator
+is made.
+
+:class:`mjcable.Simulator` calls :func:`check` once, after validating its arguments and before building the model.
+Each check warns with a :class:`~mjcable.errors.PhysicsWarning` that names the model, the quantity, its limit and the
+fix (a ``ValueError`` where no result could be right):
+
+* **ignored properties**: a ``CableSpec`` property that the model does not use (its catalogue entry's ``ignores``:
+  ``stretch_stiffness`` on ``joints`` and ``composite``, whose segments are rigid, and on ``pbd`` and ``jakobsen``,
+  whose stretch is the factor k), and ``young`` on a Jakobsen/PBD distance bend (a stick of factor 1, not E·I).
+  Explicit overrides (``bend_factor``, ``bend_compliance``, ``stretch_compliance``, ``bending="none"``) are the
+  user's choice and pass;
+* **the fall rule**, every model: gravity moves a free particle |g| h² in one substep (h = dt / substeps, MuJoCo's
+  timestep for the native models). Beyond a segment l₀, one substep's constraints and contacts no longer follow the
+  cable: measured on ``hang`` and ``table`` (dt 0.05 to 1 s), ``xpbd`` comes back 1 % long at |g| h² = 1.2 l₀ and
+  52 % at 7.6 l₀, ``joints`` and ``composite`` diverge or end up below the floor;
+* **the model's own rule** (its entry's ``check``): ``springs``' static stretch under the capped springs
+  (:func:`mjcable.mjcf.springs.precheck`); ``flexrod``'s explicit bending and tension rules are checked by
+  its builder (:mod:`mjcable.mjcf.flexrod`), with the weight of bodies hung on its pins, and its ``precheck``
+  refuses self-collision it cannot do (below); ``joints`` and
+  ``composite`` need none (their armature keeps the explicit joint springs stable by construction);
+* **the particle solvers' iterations** (:mod:`mjcable.solvers.convergence`): unconverged Gauss-Seidel or Jacobi
+  sweeps leave a rod a fraction f of its stated bending stiffness on its lowest mode (warned where its sag 1/f is off
+  by more than :data:`STIFFNESS_TOLERANCE`) and stretch an inextensible chain under its weight (warned beyond
+  :data:`STRAIN_WARNING`); the warning gives the substeps that bring it within, or the direct order.
+
+Self-collision with a radius beyond half a segment works where it can (geoms that overlap at rest never collide:
+:meth:`mjcable.scene.CableSpec.overlapping_neighbours`) and is refused by ``flexrod``, whose flex cannot skip them.
+A cable starting inside an obstacle or a geom of the user's world is refused by :class:`~mjcable.scene.Scene`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from typing import Optional
+
+import numpy as np
+
+from mjcable import _validate, catalog
+from mjcable.errors import PhysicsWarning
+from mjcable.scene import CableSpec, Scene
+from mjcable.solvers import convergence
+
+__all__ = ["check", "STRAIN_WARNING", "STIFFNESS_TOLERANCE", "MAX_SUBSTEP_FACTOR"]
+
+STRAIN_WARNING = 0.05  # an inextensible cable's expected static strain under its weight beyond which a Simulator warns
+STIFFNESS_TOLERANCE = 0.1  # a rod whose expected sag is off by more than this fraction warns
+MAX_SUBSTEP_FACTOR = 256  # the most substeps (times the given ones) a fix suggests; beyond, only another order
+_UNITS = {"stretch_stiffness": "N", "young": "Pa", "damping": "1/s", "radius": "m", "mass": "kg"}
+_STACK = 4  # warnings point at the Simulator's caller: warn ← a check ← check ← Simulator.__init__ ← caller
+
+
+def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
+    """Every check of the module docstring for ``scene`` simulated by the catalogue's ``entry`` with its validated
+    ``settings`` at step ``dt`` seconds.
+
+    Warns:
+      PhysicsWarning: a property the model ignores, a substep beyond the fall rule or the model's own rule, a rod or
+        chain the solver's iterations leave softer (or stiffer) than stated.
+
+    Raises:
+      ValueError: where the model's own rule says no result can be right.
+    """
+    _ignored(scene, entry, settings)
+    _fall(scene, entry, settings, dt)
+    if entry.check is not None:
+        entry.check(scene, settings, dt)
+    if entry.family == "particle":
+        _iterations(scene, entry, settings, dt)
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, PhysicsWarning, stacklevel=_STACK + 1)
+
+
+def _ignored(scene: Scene, entry: catalog.ModelEntry, settings) -> None:
+    """A set ``CableSpec`` property the model does not use."""
+    cable = scene.cable
+    defaults = {f.name: f.default for f in dataclasses.fields(CableSpec)}
+    for field, instead in entry.ignores:
+        value = getattr(cable, field)
+        if value == defaults[field]:
+            continue
+        users = ", ".join(catalog.honouring(field)) or "none"
+        _warn(f"{entry.name}: CableSpec.{field} = {value:g} {_UNITS.get(field, '')} is ignored: {instead}; the models "
+              f"that use it: {users}")
+    if cable.young > 0.0 and getattr(settings, "bending", None) == "distance" and (
+            hasattr(settings, "bend_factor") and settings.bend_factor is None):
+        _warn(f"{entry.name}: CableSpec.young = {cable.young:g} Pa is ignored: bending='distance' is the (i, i+2) "
+              f"stick with bend_factor 1 (rigid), not E·I; use bending='curvature' (its stiffness from E·I) or set "
+              f"bend_factor")
+
+
+def _fall(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
+    """Gravity moving a free particle more than a segment in one substep."""
+    substeps = getattr(settings, "substeps", 1)
+    h = dt / substeps
+    g = float(np.linalg.norm(scene.gravity))
+    l0 = scene.cable.segment_length
+    if g * h * h > l0:
+        longest = math.sqrt(l0 / g)
+        need = math.ceil(dt / longest)
+        fix = "a smaller dt" if need > _validate.MAX_SUBSTEPS else f"substeps >= {need} at dt={dt:g} s, or a smaller dt"
+        _warn(f"{entry.name}: gravity moves a free particle |g| h² = {g * h * h:.3g} m in one substep (h = dt / "
+              f"substeps = {h:.3g} s), more than a segment ({l0:.3g} m): one substep's constraints and contacts no "
+              f"longer follow the cable, which stretches, passes through obstacles or diverges; the substep must be at "
+              f"most sqrt(l₀ / |g|) = {longest:.3g} s: use {fix}")
+
+
+def _stated_bending(scene: Scene, rules, settings) -> Optional[float]:
+    """The curvature compliance the user states (1/(N·m³)): the model's own (XPBD), else 1 / (E·I·l₀) where the
+    bending factor derives from E·I (PBD, Jakobsen without ``bend_factor``); ``None``: nothing stated."""
+    if rules.alpha_bend > 0.0:
+        return rules.alpha_bend
+    ei = scene.cable.bending_stiffness
+    if ei > 0.0 and getattr(settings, "bend_factor", None) is None:
+        return 1.0 / (ei * scene.cable.segment_length)
+    return None
+
+
+def _direct_bending_models(scene: Scene, h: float) -> list:
+    """The particle models whose ``order="direct"`` solves bending at once (their stated stiffness in one
+    iteration)."""
+    found = []
+    for name in catalog.names("particle"):
+        try:
+            settings = catalog.make_settings(name, order="direct")
+            if catalog.get(name).rules(scene, settings, h).direct_bending:
+                found.append(name)
+        except ValueError:
+            continue
+    return found
+
+
+def _more_substeps(settings, measure, good) -> Optional[int]:
+    """The fewest substeps, doubling from ``settings.substeps`` up to :data:`MAX_SUBSTEP_FACTOR` times them, whose
+    ``measure(settings)`` is ``good``; ``None`` if none is."""
+    factor = 2
+    while factor <= MAX_SUBSTEP_FACTOR and settings.substeps * factor <= _validate.MAX_SUBSTEPS:
+        trial = dataclasses.replace(settings, substeps=settings.substeps * factor)
+        if good(measure(trial)):
+            return trial.substeps
+        factor *= 2
+    return None
+
+
+def _iterations(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
+    """The stiffness a particle solver's iterations leave the cable (:mod:`mjcable.solvers.convergence`)."""
+    hung = convergence.hung_masses(scene)
+
+    def rules(s):
+        return entry.rules(scene, s, dt / s.substeps)
+
+    def strain(s):
+        return convergence.stretch_strain(scene, rules(s), s, dt / s.substeps, hung=hung)
+
+    how = f"order={settings.order!r}, {settings.iterations} iteration(s) × {settings.substeps} substeps at dt={dt:g} s"
+    expected = strain(settings)
+    if expected is not None and expected > STRAIN_WARNING:
+        need = _more_substeps(settings, strain, lambda e: e is not None and e <= STRAIN_WARNING)
+        fixes = [] if settings.order == "direct" else ["order='direct' (the stretch chain solved at once)"]
+        if need is not None:
+            fixes.append(f"substeps >= {need}")
+        _warn(f"{entry.name}: with {how}, the constraint iterations leave the cable a static strain of about "
+              f"{expected:.3g} under its weight beyond what its stated stretch gives (none for an inextensible cable; "
+              f"warned beyond {STRAIN_WARNING:g}); use "
+              f"{' or '.join(fixes) or 'a smaller dt'}")
+
+    def fraction(s):
+        r = rules(s)
+        alpha = _stated_bending(scene, r, s)
+        return None if alpha is None else convergence.bending_fraction(scene, r, s, dt / s.substeps,
+                                                                        alpha_bend=alpha, hung=hung)
+
+    def within(f):
+        return f is not None and f > 0.0 and abs(1.0 / f - 1.0) <= STIFFNESS_TOLERANCE
+
+    f = fraction(settings)
+    if f is None or within(f):
+        return
+    stated = 1.0 / (_stated_bending(scene, rules(settings), settings) * scene.cable.segment_length)
+    direct = _direct_bending_models(scene, dt / settings.substeps)
+    fixes = []
+    if entry.name in direct and settings.order != "direct":
+        fixes.append("order='direct' (bending solved at once: the stated stiffness in one iteration)")
+    elif entry.name not in direct and direct:
+        fixes.append(f"the direct order of {' or '.join(direct)} (order='direct': the stated stiffness in one "
+                     f"iteration)")
+    need = _more_substeps(settings, fraction, within)
+    if need is not None:
+        fixes.append(f"substeps >= {need}")
+    sag = f"sags {1.0 / f:.3g} times as far as stated" if f > 0.0 else "does not hold its shape"
+    _warn(f"{entry.name}: with {how}, the rod reaches about {f:.3g} of its stated bending stiffness (E·I = "
+          f"{stated:.4g} N·m²) on its lowest bending mode: it {sag}; use "
+          f"{' or '.join(fixes) or 'more iterations'}")
