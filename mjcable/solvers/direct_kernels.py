@@ -1,6 +1,7 @@
 """The direct order of the particle solvers, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`): all chain
 constraints at once as one banded linear system (Deul et al. 2018, [D18] in :mod:`mjcable.solvers.kernels`), solved
-by a banded LDLᵀ, with the safeguard that re-linearises a failed solve. Re-exported by :mod:`mjcable.solvers.kernels`.
+by a banded LDLᵀ (a stretch chain with its geometric stiffness: 3 × 3 blocks, by block LDLᵀ), with the safeguard that
+re-linearises a failed solve. Re-exported by :mod:`mjcable.solvers.kernels`.
 """
 
 from __future__ import annotations
@@ -31,9 +32,11 @@ _DIRECT_MAX_SOLVES = 8
 # substep, l₀ the segment length) from which a direct solve includes the stretch rows' geometric stiffness (transverse
 # rows, see _direct_residuals). Without it the tension's sideways pull is explicit in position: stable only below
 # about 1 (beyond, one solve per substep no longer converges and the chain runs away). Below 0.6 the chain's own rows
-# (tridiagonal for a stretch chain, several times cheaper) keep an inextensible hang within 4e-7 of its length (the
-# hang at 400-550 segments, 4 substeps of 0.5 ms: c h / l₀ up to 0.49-0.67 at its top); from 0.73 they leave 1e-4
-# (600 segments), so the transverse rows take over below that (docs/measurements.md).
+# keep an inextensible hang within 4e-7 of its length (the hang at 400-550 segments, 4 substeps of 0.5 ms: c h / l₀ up
+# to 0.49-0.67 at its top); from 0.73 they leave 1e-4 (600 segments), so the transverse rows take over below that.
+# Below it a coarse chain keeps the plain solve: with bending rows the extended rows cost several times the chain's
+# own; a stretch chain's block solve (_chain_geometric_solve) costs about the same as its plain one
+# (docs/measurements.md).
 _GEOMETRIC_COURANT = 0.6
 # The block solve of a stretch chain's geometric stiffness (_chain_geometric_solve) leaves out a segment's transverse
 # rows where their compliance exceeds _TRANSVERSE_NEGLIGIBLE times the segment's axial diagonal w_i + w_j + α̃ (a
