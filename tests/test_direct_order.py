@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable import reference
+from mjcable import catalog, reference
+from mjcable.solvers import direct_kernels, kernels_layout, state
 from mjcable.bench.scenarios import yank_scene
 
 G = 9.81
@@ -143,3 +144,93 @@ def test_direct_order_keeps_a_chain_inextensible_where_it_switches_to_the_geomet
     stiffness leaves 1e-4 there; the direct order must not."""
     strain, _ = _fine_hang(4, segments=600)
     assert strain <= INEXTENSIBLE_STRAIN
+
+
+# -- the stretch chain's geometric stiffness, block by block, against a dense solve of the same system ------------
+
+def _dense_geometric_solve(x, w, rest, lam, lam_gs, alpha_t, chord_floor):
+    """A dense reference of one direct solve with the stretch rows' geometric stiffness ([T15]: two transverse rows
+    per segment in tension, compliance |d| / −λ, right-hand side 0): the Schur system (J W Jᵀ + α̃) Δλ = −C − α̃ λ
+    over every row (diagonal × (1 + 1e-10); a row with a zero diagonal keeps Δλ = 0), Δx = W Jᵀ Δλ, then a chord
+    step with the same matrix (right-hand side 0 between held particles) where the stretch rows' relative residual
+    is at most ``chord_floor``. Returns x, λ and the held particles' Σ ∇C Δλ after it."""
+    x, lam = x.copy(), lam.copy()
+    n_p = x.shape[0]
+    grads, alphas, stretch_of = [], [], []
+    for i in range(rest.shape[0]):
+        d = x[i] - x[i + 1]
+        nrm = d / np.linalg.norm(d)
+        frame = [nrm]
+        if lam_gs[i] < 0.0:
+            t0 = np.cross(nrm, np.eye(3)[np.argmin(np.abs(nrm))])
+            t0 /= np.linalg.norm(t0)
+            frame += [t0, np.cross(nrm, t0)]
+        for k, g in enumerate(frame):
+            row = np.zeros(3 * n_p)
+            row[3 * i:3 * i + 3], row[3 * i + 3:3 * i + 6] = g, -g
+            grads.append(row)
+            alphas.append(alpha_t if k == 0 else np.linalg.norm(d) / -lam_gs[i])
+            stretch_of.append(i if k == 0 else -1)
+    jac, stretch_of = np.array(grads), np.array(stretch_of)
+    inv_m = np.repeat(w, 3)
+    a = (jac * inv_m) @ jac.T + np.diag(alphas)
+    dead = np.diag(a) == 0.0
+    a[np.diag_indices_from(a)] *= 1.0 + 1e-10
+    a[dead, dead] = 1.0
+    react = np.zeros_like(x)
+
+    def residual(chord):  # a chord step leaves the rows between held particles as they are
+        rhs = np.zeros(len(alphas))
+        for r, i in enumerate(stretch_of):
+            if i >= 0 and (not chord or w[i] > 0.0 or w[i + 1] > 0.0):
+                rhs[r] = -(np.linalg.norm(x[i] - x[i + 1]) - rest[i]) - alpha_t * lam[i]
+        return rhs
+
+    def apply(rhs):
+        rhs[dead] = 0.0
+        dlam = np.linalg.solve(a, rhs)
+        push = (jac.T @ dlam).reshape(-1, 3)
+        x[:] += w[:, None] * push
+        react[w == 0.0] += push[w == 0.0]
+        lam[stretch_of[stretch_of >= 0]] += dlam[stretch_of >= 0]
+
+    apply(residual(False))
+    chord = residual(True)
+    if np.max(np.abs(chord[stretch_of >= 0]) / rest) <= chord_floor:
+        apply(chord)
+    return x, lam, react
+
+
+@pytest.mark.parametrize("jitter", [0.002, 0.2])  # segment lengths: a chord step follows the solve / none does
+@pytest.mark.parametrize("stretch_stiffness", [None, 1e4])  # inextensible / compliant (α̃ ≈ w / 12)
+def test_the_block_solve_of_the_geometric_stiffness_is_the_dense_solve_of_its_rows(jitter, stretch_stiffness):
+    """A 24-segment chain held at one end and at two neighbours in its middle (a segment between held particles),
+    its particles jittered by ``jitter`` segment lengths, tensions from the last solve that include compressed
+    segments (no transverse rows) and one near zero: the block-tridiagonal solve
+    (``direct_kernels._chain_geometric_solve``) must move the particles and multipliers, and load the held
+    particles, as a dense solve of every row does."""
+    cable = mjcable.CableSpec([[0.0, 0.0, 1.0], [1.2, 0.0, 0.9]], 24, 0.005, 0.1, stretch_stiffness=stretch_stiffness)
+    scene = mjcable.Scene(cable, pins=(mjcable.Pin(0), mjcable.Pin(12), mjcable.Pin(13)))
+    sim = mjcable.Simulator(scene, "xpbd")
+    h = sim.dt / sim.settings.substeps
+    rules = catalog.get("xpbd").rules(scene, sim.settings, h)
+    arrays = state.chain_arrays(scene, rules, sim.settings, sim.dt)
+    assert arrays.par[0]["gs_chain"]
+    rng = np.random.default_rng(7)
+    l0 = cable.segment_length
+    arrays.x[:] += jitter * l0 * rng.standard_normal(arrays.x.shape)
+    tension = rng.uniform(0.5, 3.0, cable.n_segments)  # N
+    tension[[3, 17]] = -0.2  # compressed
+    tension[20] = 1e-12  # near zero: its transverse rows are negligible
+    arrays.lam_gs[:] = -tension * h * h
+    arrays.lam_s[:] = 0.5 * arrays.lam_gs
+    alpha_t = arrays.par[0]["alpha_s"] / h**2
+    expected = _dense_geometric_solve(arrays.x, arrays.w, arrays.rest, arrays.lam_s, arrays.lam_gs, alpha_t,
+                                      direct_kernels._DIRECT_RESIDUAL_FLOOR)
+    start = arrays.x.copy()
+    direct_kernels._chain_geometric_solve(kernels_layout.assemble(arrays), alpha_t)
+    moved = expected[0] - start
+    assert np.max(np.abs(moved)) > 0.1 * jitter * l0  # the solve has work to do
+    np.testing.assert_allclose(arrays.x - start, moved, rtol=0.0, atol=1e-9 * np.max(np.abs(moved)))
+    for got, want in zip((arrays.lam_s, arrays.react), expected[1:]):
+        np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-9 * np.max(np.abs(want)))

@@ -101,8 +101,10 @@ PARAMS = np.dtype([
     ("check_where", "i8"), ("warn_check", "i8"), ("warn_value", "f8"), ("warn_where", "i8"), ("warn_step", "i8"),
     # the direct order's geometric stiffness (direct_kernels: the stretch rows' transverse rows): whether the model's
     # multipliers carry it (XPBD), the half-bandwidth of the rows with it, whether the last solve found the tension
-    # stiff (its multipliers then in lam_gs; False from the start and after a reset), and a read-out: the direct solves taken since the start
-    ("geometric", "?"), ("gs_bandwidth", "i8"), ("gs_stiff", "?"), ("direct_solves", "i8"),
+    # stiff (its multipliers then in lam_gs; False from the start and after a reset), whether its rows are the stretch
+    # chain's only (then solved block by block in gs_blocks, not over the gs_ rows), and a read-out: the direct
+    # solves taken since the start
+    ("geometric", "?"), ("gs_bandwidth", "i8"), ("gs_stiff", "?"), ("gs_chain", "?"), ("direct_solves", "i8"),
     # Verlet's start (Jakobsen, PBD's Verlet): the next substep is the first from the start state (at rest, v = 0),
     # whose prediction is Taylor's x₁ = x₀ + h v₀ + ½ g h² (half of gravity's velocity h g); False after it
     ("verlet_start", "?"),
@@ -201,6 +203,8 @@ FIELDS = (
     ("gs_pslot", _I2, "(N, W') the particle's slot in them"), ("gs_band", _F2, "(R', bw' + 1) lower band"),
     ("gs_grad", _F3, "(R', 3, 3) row gradients"), ("gs_rhs", _F1, "(R',)"),
     ("lam_gs", _F1, "(n,) stretch multipliers of the last direct solve"),
+    ("gs_blocks", _F2, "(n, 12) or (0, 12) per segment of a stretch chain (par.gs_chain): its direction n (3), the "
+     "block solve's E = Π D⁻¹ Π (6: xx, yy, zz, xy, xz, yz) and forward-substituted y (3)"),
 )
 
 
@@ -321,9 +325,9 @@ def _scratch_forces(S, force, applied):
 
 
 @_jit
-def _geometric(S, gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot, gs_band, gs_grad, gs_rhs, lam_gs):
+def _geometric(S, gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot, gs_band, gs_grad, gs_rhs, lam_gs, gs_blocks):
     S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot = gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot
-    S.gs_band, S.gs_grad, S.gs_rhs, S.lam_gs = gs_band, gs_grad, gs_rhs, lam_gs
+    S.gs_band, S.gs_grad, S.gs_rhs, S.lam_gs, S.gs_blocks = gs_band, gs_grad, gs_rhs, lam_gs, gs_blocks
 
 
 @_jit
@@ -354,7 +358,7 @@ _PARTS = (
     (_scratch, ("saved", "jacp", "jn", "solved", "start_from", "start_to", "target", "p0", "arm", "free", "free_w")),
     (_scratch_forces, ("force", "applied")),
     (_geometric, ("gs_row_kind", "gs_row_idx", "gs_row_p", "gs_prow", "gs_pslot", "gs_band", "gs_grad", "gs_rhs",
-                  "lam_gs")),
+                  "lam_gs", "gs_blocks")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

@@ -166,12 +166,15 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     else:
         rows = _direct_rows(2, "none", np.zeros((0, 2), dtype=np.int64))  # unused placeholder of the right types
     geometric = settings.order == "direct" and rules.geometric_stiffness
-    if geometric:  # the same rows with the stretch rows' transverse rows
+    # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
+    gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH))
+    if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
         gs = _direct_rows(n_particles, rules.bending if rules.direct_bending else "none",
                           clamp_pq if rules.direct_bending else np.zeros((0, 2), dtype=np.int64), transverse=True)
     else:
         gs = _direct_rows(2, "none", np.zeros((0, 2), dtype=np.int64))  # unused placeholder of the right types
     rows.update({f"gs_{name}": value for name, value in gs.items()})
+    rows["gs_blocks"] = np.zeros((cable.n_segments if gs_chain else 0, 12))
     par = np.zeros(1, dtype=layout.PARAMS)
     P = par[0]
     gravity = np.asarray(scene.gravity, dtype=np.float64)
@@ -182,7 +185,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             mu_self=cable.friction, iterations=settings.iterations, substeps=settings.substeps,
             order=ORDER_CODES[settings.order], bending=BENDING_CODES[rules.bending], sqrt_approx=rules.sqrt_approx,
             direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
-            gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, direct_solves=0,
+            gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, gs_chain=gs_chain, direct_solves=0,
             max_distance=math.inf, max_speed=math.inf, strain_fail=math.inf, strain_warn=math.inf, tear=math.inf,
             check_where=-1, warn_where=-1, warn_step=-1, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
