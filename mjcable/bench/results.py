@@ -10,17 +10,20 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 import json
 import math
 import os
+import re
 import time
-from typing import Iterable, List
+import warnings
+from typing import Iterable, Iterator, List, Tuple
 
 from mjcable.bench import case as case_mod
 from mjcable.bench.outcome import OUTCOMES
 
-__all__ = ["COLUMNS", "TEXT_COLUMNS", "empty_row", "format_row", "read_rows", "latest_rows", "done_keys",
-           "positions_path", "check_header"]
+__all__ = ["COLUMNS", "TEXT_COLUMNS", "empty_row", "format_row", "format_line", "header_line", "read_rows",
+           "repair", "latest_rows", "done_keys", "positions_path", "check_header"]
 
 COLUMNS = [
     "key", "scenario", "model", "solver", "dt", "n_segments", "substeps", "iterations", "order", "params",
@@ -28,6 +31,7 @@ COLUMNS = [
     "wall_per_sim_s", "step_wall_s", "build_s", "sim_time", "steps", "time_cap_s", "started",
 ]
 TEXT_COLUMNS = ("key", "scenario", "model", "solver", "order", "params", "outcome", "reason", "error_kind", "started")
+_LINE = re.compile(rb"[^\n]*\n|[^\n]+\Z")  # a line of the file with its end, or the last one without
 
 
 def _used_settings(case: case_mod.Case) -> tuple:
@@ -74,20 +78,89 @@ def format_row(row: dict) -> dict:
 
 def read_rows(path) -> List[dict]:
     """All rows of a sweep CSV (numbers parsed where they parse, empty cells as NaN), in file order; [] when it
-    does not exist."""
+    does not exist. A row cut short by an interrupted write (the last one, without its line end) or garbled (a
+    number of cells other than the header's) is left out with a warning naming the file and the row."""
     if not os.path.exists(path):
         return []
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
+    with open(path, "rb") as f:
+        data = f.read()
+    rows, header = [], None
+    for number, line, _end, cells in _records(data):
+        if header is None:
+            header = cells
+        elif len(cells) != len(header) or (_end == len(data) and not data.endswith(b"\n")):
+            warnings.warn(f"{path}: row {number} (line {line}) is cut short or garbled (an interrupted write?); "
+                          "left out", stacklevel=2)
+        else:
+            rows.append(dict(zip(header, cells)))
     for row in rows:
         for k, v in row.items():
             if k in TEXT_COLUMNS:
                 continue
             try:
-                row[k] = float(v) if v not in ("", None) else math.nan
+                row[k] = float(v) if v != "" else math.nan
             except ValueError:
                 pass
     return rows
+
+
+def repair(path) -> None:
+    """Cut a row that an interrupted write left without its line end (the last one, possibly the header) off the
+    CSV at ``path``, with a warning naming the file and the row, so that the rows appended next start on a line of
+    their own and the cut run goes again."""
+    if not os.path.exists(path):
+        return
+    with open(path, "rb") as f:
+        data = f.read()
+    if not data or data.endswith(b"\n"):
+        return
+    start, number, line = 0, 0, 1
+    for number, line, end, _cells in _records(data):
+        if end == len(data):
+            break
+        start, number, line = end, number + 1, line + 1  # what is cut is then a blank fragment after this row
+    with open(path, "r+b") as f:
+        f.truncate(start)
+        f.flush()
+        os.fsync(f.fileno())
+    what = "the header" if number == 0 else f"row {number}"
+    warnings.warn(f"{path}: {what} (line {line}) was cut short by an interrupted write; removed it "
+                  f"({len(data) - start} bytes) before resuming", stacklevel=2)
+
+
+def format_line(row: dict) -> str:
+    """``row`` as one line of the CSV (:func:`format_row`, the CSV writer's quoting, ``\\r\\n`` at the end)."""
+    out = io.StringIO()
+    csv.DictWriter(out, fieldnames=COLUMNS).writerow(format_row(row))
+    return out.getvalue()
+
+
+def header_line() -> str:
+    """The CSV's header line."""
+    out = io.StringIO()
+    csv.writer(out).writerow(COLUMNS)
+    return out.getvalue()
+
+
+def _records(data: bytes) -> Iterator[Tuple[int, int, int, List[str]]]:
+    """``(row number, first line, end offset in bytes, cells)`` of each record of the CSV bytes ``data`` (row 0:
+    the header; blank lines skipped). A record may span lines (a quoted cell with a line break); a cell that
+    does not decode as UTF-8 gets replacement characters."""
+    end = 0
+
+    def lines():
+        nonlocal end
+        for m in _LINE.finditer(data):
+            end = m.end()
+            yield m.group().decode("utf-8", "replace")
+
+    reader = csv.reader(lines())
+    number, line = 0, 1
+    for cells in reader:
+        if cells:
+            yield number, line, end, cells
+            number += 1
+        line = reader.line_num + 1
 
 
 def latest_rows(rows: Iterable[dict]) -> List[dict]:
