@@ -1,3 +1,5 @@
+import logging
+
 import mujoco
 import numpy as np
 import pytest
@@ -61,6 +63,17 @@ def test_unstable_springs_raise_instead_of_running_on(hang):
     with pytest.raises(mjcable.SimulationDivergedError, match="springs") as err:
         sim.step(2.0)
     assert 0.0 < err.value.time < 2.0
+
+
+def test_mujocos_warnings_go_to_the_logger_not_to_a_file_in_the_working_folder(hang, tmp_path, monkeypatch, caplog):
+    monkeypatch.chdir(tmp_path)
+    sim = mjcable.Simulator(hang, "springs", substeps=20)
+    sim.mj_model.tendon_stiffness[:] *= 1e4  # ω h far beyond the explicit limit 2: MuJoCo's own check trips
+    with caplog.at_level(logging.WARNING, logger="mjcable.mujoco"):
+        with pytest.raises(mjcable.SimulationDivergedError, match="mjWARN_BADQACC"):  # its counters still read
+            sim.step(0.5)
+    assert [r.getMessage() for r in caplog.records if r.name == "mjcable.mujoco" and "QACC" in r.getMessage()]
+    assert list(tmp_path.iterdir()) == []  # no MUJOCO_LOG.TXT
 
 
 def test_move_gripper_validates():

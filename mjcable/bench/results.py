@@ -66,12 +66,15 @@ def empty_row(case: case_mod.Case) -> dict:
 
 
 def format_row(row: dict) -> dict:
-    """``row`` as the CSV writer takes it: every column, floats to 6 significant digits, NaN as empty."""
+    """``row`` as the CSV writer takes it: every column, floats to 6 significant digits, NaN as empty, line breaks
+    in text as spaces (one line per row)."""
     out = {}
     for k in COLUMNS:
         v = row.get(k, "")
         if isinstance(v, float):
             v = "" if math.isnan(v) else f"{v:.6g}"
+        elif isinstance(v, str):
+            v = " ".join(v.splitlines())
         out[k] = v
     return out
 
@@ -85,10 +88,10 @@ def read_rows(path) -> List[dict]:
     with open(path, "rb") as f:
         data = f.read()
     rows, header = [], None
-    for number, line, _end, cells in _records(data):
+    for number, line, end, cells in _records(data):
         if header is None:
             header = cells
-        elif len(cells) != len(header) or (_end == len(data) and not data.endswith(b"\n")):
+        elif len(cells) != len(header) or (end == len(data) and not data.endswith(b"\n")):
             warnings.warn(f"{path}: row {number} (line {line}) is cut short or garbled (an interrupted write?); "
                           "left out", stacklevel=2)
         else:
@@ -114,11 +117,9 @@ def repair(path) -> None:
         data = f.read()
     if not data or data.endswith(b"\n"):
         return
-    start, number, line = 0, 0, 1
-    for number, line, end, _cells in _records(data):
-        if end == len(data):
-            break
-        start, number, line = end, number + 1, line + 1  # what is cut is then a blank fragment after this row
+    start = data.rfind(b"\n") + 1  # where the last line, the one without its end, starts
+    number = sum(1 for _ in _records(data[:start]))  # the rows before it (0: it is the header)
+    line = data.count(b"\n", 0, start) + 1
     with open(path, "r+b") as f:
         f.truncate(start)
         f.flush()
@@ -143,24 +144,16 @@ def header_line() -> str:
 
 
 def _records(data: bytes) -> Iterator[Tuple[int, int, int, List[str]]]:
-    """``(row number, first line, end offset in bytes, cells)`` of each record of the CSV bytes ``data`` (row 0:
-    the header; blank lines skipped). A record may span lines (a quoted cell with a line break); a cell that
-    does not decode as UTF-8 gets replacement characters."""
-    end = 0
-
-    def lines():
-        nonlocal end
-        for m in _LINE.finditer(data):
-            end = m.end()
-            yield m.group().decode("utf-8", "replace")
-
-    reader = csv.reader(lines())
-    number, line = 0, 1
-    for cells in reader:
+    """``(row number, line number, end offset in bytes, cells)`` of each line of the CSV bytes ``data`` (row 0:
+    the header; blank lines skipped). Each line is read on its own (this version writes one line per row), so an
+    unbalanced quote in a garbled line cannot swallow the rows after it; bytes that do not decode as UTF-8 become
+    replacement characters."""
+    number = 0
+    for line, m in enumerate(_LINE.finditer(data), start=1):
+        cells = next(csv.reader([m.group().decode("utf-8", "replace")]), [])
         if cells:
-            yield number, line, end, cells
+            yield number, line, m.end(), cells
             number += 1
-        line = reader.line_num + 1
 
 
 def latest_rows(rows: Iterable[dict]) -> List[dict]:
