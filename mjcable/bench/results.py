@@ -4,6 +4,10 @@ A row's ``key`` is its :attr:`~mjcable.bench.case.Case.key`; ``solver`` is the c
 and ``substeps``, ``iterations`` and ``order`` are the values the run used (the model's defaults where the case
 gives none; empty where the model has no such setting). Final positions, when a case's params ask for them, are
 kept as ``.npy`` files next to the CSV (:func:`positions_path`).
+
+The CSV holds one line per row (:func:`format_line`), appended as runs finish, so a killed sweep leaves at most its
+last row cut short: :func:`repair` removes it before a sweep resumes, and :func:`read_rows` leaves out, with a
+warning, any row cut short or garbled.
 """
 
 from __future__ import annotations
