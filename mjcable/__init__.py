@@ -44,7 +44,7 @@ __all__ = [
 
 __version__ = "0.1.0"
 
-_mujoco_log.route_warnings()  # MuJoCo's warnings to the logger "mjcable.mujoco", not to ./MUJOCO_LOG.TXT
+_mujoco_log.route_warnings()  # MuJoCo's warnings to the logger "mjcable", not to ./MUJOCO_LOG.TXT
 
 
 _FAMILY_VIEWS = {"MODELS": None, "NATIVE_MODELS": "native", "PARTICLE_MODELS": "particle"}

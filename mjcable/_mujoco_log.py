@@ -2,9 +2,10 @@
 
 Without a user warning handler MuJoCo prints each warning to stdout and appends it to ``MUJOCO_LOG.TXT`` in the
 working folder (MuJoCo 3.17 and 4.0 alike); with one, it does neither. :func:`route_warnings` (run when mjcable is
-imported) installs a handler that hands each message to the logger :data:`LOGGER` (``"mjcable.mujoco"``, level
+imported) installs a handler that hands each message to the logger :data:`LOGGER` (``"mjcable"``, level
 WARNING: on stderr unless the application configures logging), unless the process already has a handler of its
-own. MuJoCo still counts every warning in ``mjData.warning``, which the Simulator reads to detect divergence.
+own (dm_control, once imported, puts its own in place, which logs through absl: MuJoCo's warnings stay in Python
+either way). MuJoCo still counts every warning in ``mjData.warning``, which the Simulator reads to detect divergence.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import mujoco
 
 __all__ = ["LOGGER", "route_warnings"]
 
-LOGGER = logging.getLogger("mjcable.mujoco")
+LOGGER = logging.getLogger("mjcable")  # the package's logger; messages start with "MuJoCo: "
 
 
 def _to_logger(message: str) -> None:
