@@ -11,7 +11,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 from mjcable import _mujoco_log, catalog, mjcf, scenes, solvers  # noqa: E402
 from mjcable.batch import Batch, BatchTrajectory  # noqa: E402
 from mjcable.catalog import build  # noqa: E402
-from mjcable.errors import SimulationDivergedError  # noqa: E402
+from mjcable.errors import PhysicsWarning, SimulationDivergedError  # noqa: E402
 from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Pin, Scene, Sphere  # noqa: E402
 from mjcable.simulator import Simulator, Trajectory  # noqa: E402
 from mjcable.spline import CatmullRom, resample  # noqa: E402
@@ -37,6 +37,7 @@ __all__ = [
     "Batch",
     "BatchTrajectory",
     "SimulationDivergedError",
+    "PhysicsWarning",
     "MODELS",
     "NATIVE_MODELS",
     "PARTICLE_MODELS",

@@ -23,6 +23,8 @@ _REAL = (int, float, np.integer, np.floating)
 _INTEGRAL = (int, np.integer)
 
 
+MAX_SUBSTEPS = 10_000  # substeps (and iterations) per step beyond which one step costs seconds to minutes
+
 def _interval(low: float, high: float, low_open: bool, high_open: bool) -> str:
     return f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open or high == math.inf else ']'}"
 

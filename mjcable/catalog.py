@@ -166,8 +166,9 @@ def check_substep(dt: float, settings) -> None:
       ValueError: naming ``substeps``, ``dt`` and the largest substep count that ``dt`` allows."""
     substeps = getattr(settings, "substeps", 1)
     if dt / substeps < MIN_DT:
+        most = max(k for k in (int(dt / MIN_DT), int(dt / MIN_DT) + 1) if dt / k >= MIN_DT)  # round-off either way
         raise ValueError(f"substeps must leave a substep dt / substeps of at least {MIN_DT:g} s, got substeps="
-                         f"{substeps} at dt={dt:g} s (at most {int(dt / MIN_DT)} substeps at that dt)")
+                         f"{substeps} at dt={dt:g} s (at most {most} substeps at that dt)")
 
 
 def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.MjSpec:

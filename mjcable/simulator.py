@@ -18,18 +18,19 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from mjcable import _validate, catalog
-from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend, check_failure
+from mjcable import _validate, catalog, monitor
+from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
-from mjcable.solvers.monitor_kernels import step_check
 
-__all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE"]
+__all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE", "MAX_STEPS", "MAX_ROLLOUT_BYTES"]
 
 _STEP_EPS = 1e-9  # fraction of dt forgiven when counting whole steps in an accumulated duration
 _CALL_SECONDS = 0.1  # s of wall time one call of the backend's run aims at: Ctrl-C stops a long run within about this
 _FIRST_CALL = 16  # steps of a run's first call, before its wall time per step is known
 _GROWTH = 4.0  # the most a call's step count grows over the last one's
+MAX_STEPS = 10**9  # steps one call of step or rollout may take
+MAX_ROLLOUT_BYTES = 8 * 2**30  # the most memory one rollout may record into
 
 
 @contextlib.contextmanager
@@ -113,16 +114,16 @@ class Simulator:
         n = scene.cable.n_particles
         self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
         self._step_seconds = None  # wall seconds per step of the last call of the backend's run (None: none yet)
+        self._warned = set()  # the checks a PhysicsWarning was given for
         self._start_steps()
 
     def _start_steps(self) -> None:
         self._steps = 0
         self._pending = 0.0
         self._positions = self._backend.positions()
-        reason = check_failure(*step_check(self._positions, self._positions, self._positions, self.dt, MAX_DISTANCE,
-                                           MAX_SPEED))
-        if reason is not None:
-            raise SimulationDivergedError(self.model, 0, 0.0, reason)
+        if not np.all(np.isfinite(self._positions)):
+            raise SimulationDivergedError(self.model, 0, 0.0, "non-finite particle state (NaN or inf) at the start",
+                                          check="non-finite")
 
     # -- state ----------------------------------------------------------------------------------------------------
 
@@ -210,6 +211,10 @@ class Simulator:
         if seconds is None:
             return 1
         seconds = _validate.number("seconds", seconds, low=0.0, unit="s")
+        if (self._pending + seconds) / self.dt > MAX_STEPS:
+            raise ValueError(f"seconds = {seconds:g} is {seconds / self.dt:.3g} steps of dt = {self.dt:g} s, beyond the "
+                             f"{MAX_STEPS:.0e} steps one call may take (mjcable.simulator.MAX_STEPS: days of wall "
+                             "time at any model's speed); step in shorter calls")
         self._pending += seconds
         count = int(math.floor(self._pending / self.dt + _STEP_EPS))
         self._pending = max(self._pending - count * self.dt, 0.0)
@@ -243,8 +248,12 @@ class Simulator:
                 stored += result.recorded
                 self._steps += result.steps
                 self._positions = self._backend.positions()
+                if result.warning is not None:
+                    self._warn(result.warning, self._steps - result.steps + result.warning.step)
                 if result.failure is not None:
-                    raise SimulationDivergedError(self.model, self._steps, self.time, result.failure)
+                    found = result.failure
+                    raise SimulationDivergedError(self.model, self._steps, self.time, found.reason, check=found.check,
+                                                  value=found.value, fix=self._fix(found.check))
                 if interrupted.is_set():
                     raise KeyboardInterrupt
                 if result.steps < k:  # a socket let go (until_release)
@@ -252,6 +261,15 @@ class Simulator:
                 self._step_seconds = max(elapsed, 1e-9) / k
                 per_call = max(1, min(int(_GROWTH * k), int(_CALL_SECONDS / self._step_seconds)))
         return done
+
+    def _fix(self, check: str) -> str:
+        return monitor.fix(self.scene, self.model, self.settings, self.dt, check)
+
+    def _warn(self, found: monitor.Breach, step: int) -> None:
+        """A :class:`~mjcable.errors.PhysicsWarning` for ``found`` at ``step``, once per check and Simulator."""
+        if found.check not in self._warned:
+            self._warned.add(found.check)
+            monitor.warn(found, self.model, step, step * self.dt, self._fix(found.check))
 
     def step(self, seconds: Optional[float] = None) -> None:
         """Advance by whole steps of ``dt``; the remainder of ``seconds`` carries over to the next call.
@@ -339,8 +357,17 @@ class Simulator:
             traj = sim.rollout(1.0, every=10)   # traj.positions: (50, n_segments + 1, 3) at dt = 0.002
         """
         stride = 1 if every is None else _validate.integer("every", every, low=1)
+        if seconds is not None and not isinstance(seconds, bool) and isinstance(seconds, (int, float, np.number)):
+            planned = int(max(float(seconds), 0.0) / self.dt / stride) + 1  # rows, before _count takes the steps
+            size = planned * 2 * self._positions.size * 8
+            if size > MAX_ROLLOUT_BYTES:
+                raise ValueError(f"rollout({seconds!r}, every={every!r}) would record {planned} rows of positions and "
+                                 f"velocities, {size / 2**30:.3g} GiB (limit {MAX_ROLLOUT_BYTES / 2**30:g} GiB, "
+                                 "mjcable.simulator.MAX_ROLLOUT_BYTES); record less often (a larger every) or "
+                                 "roll out in shorter calls")
         count = self._count(seconds)
-        rows = [k for k in range(1, count + 1) if k % stride == 0 or k == count] or [0]
+        rows = np.arange(1, count + 1, dtype=np.int64)
+        rows = rows[(rows % stride == 0) | (rows == count)].tolist() or [0]
         shape = (len(rows),) + self._positions.shape
         start = self._steps
         times, pos, vel = (np.array(rows, dtype=np.int64) + start) * self.dt, np.empty(shape), np.empty(shape)

@@ -15,6 +15,7 @@ in Python, piece by piece (:func:`mjcable.solvers.kernels.run_phase`).
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Optional
 
@@ -22,7 +23,8 @@ import mujoco
 import numpy as np
 
 from mjcable.backends import host as host_world
-from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, RunResult, check_failure
+from mjcable import monitor
+from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, RunResult
 from mjcable.mjcf import proxy, world
 from mjcable.scene import Scene
 from mjcable.solvers import capi, kernels, kernels_layout as layout, query_kernels
@@ -73,7 +75,11 @@ class ParticleBackend:
         self._user = [(c, c.resolved(n_particles)) for c in getattr(s, "constraints", ())]
         a = self.arrays = chain_arrays(scene, self.rules, s, dt)
         self._par = a.par[0]  # the parameter record (a view: reads and writes go to the state)
-        self._par["max_distance"], self._par["max_speed"] = MAX_DISTANCE, MAX_SPEED
+        self._limits = lim = monitor.limits(scene, entry.name)
+        for name, value in dict(max_distance=MAX_DISTANCE, max_speed=MAX_SPEED, strain_fail=lim.strain_fail,
+                                strain_warn=lim.strain_warn, tear=lim.tear, depth_check=True, check_where=-1,
+                                warn_where=-1, warn_step=-1).items():
+            self._par[name] = value
         self.mj_model = entry.build(scene, s, dt).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m, d = self.mj_model, self.mj_data
@@ -167,10 +173,10 @@ class ParticleBackend:
         par = self._par
         t0 = time.perf_counter()
         if self._user:
-            done, stored, failure = self._run_user(count, rows, out_x, out_v, pins, targets, until_release)
+            done, stored, failure, warning = self._run_user(count, rows, out_x, out_v, pins, targets, until_release)
         else:
             done = stored = 0
-            failure = None
+            failure = warning = None
             given = False
             while done < count:
                 chunk = rows[stored:] - done if len(rows) > stored else rows[:0]
@@ -186,9 +192,11 @@ class ParticleBackend:
                     self._python_query()
                     given = True
                 elif outcome == layout.RUN_DIVERGED:
-                    failure = check_failure(par["check"], par["check_value"])
+                    failure = self._breach()
                 elif outcome == layout.RUN_WARNING:
-                    failure = host_world.reason(par["warning"])
+                    failure = monitor.Breach("MuJoCo warning", math.nan, host_world.reason(par["warning"]))
+                if warning is None and par["warn_check"] != layout.CHECK_OK:
+                    warning = self._warning(done - k)
                 if failure is not None or outcome == layout.RUN_RELEASED:
                     break
         t1 = time.perf_counter()
@@ -199,7 +207,21 @@ class ParticleBackend:
         self._sync()
         self.timing["solve"] += t1 - t0
         self.timing["sync"] += time.perf_counter() - t1
-        return RunResult(done, stored, failure)
+        return RunResult(done, stored, failure, warning)
+
+    def _breach(self) -> monitor.Breach:
+        """The check that stopped the last step."""
+        par = self._par
+        return monitor.breach(int(par["check"]), float(par["check_value"]), int(par["check_where"]), self.scene,
+                              self._limits)
+
+    def _warning(self, before: int) -> monitor.Breach:
+        """The first warning-level check of the last call (``before`` steps of this run preceded it), cleared."""
+        par = self._par
+        found = monitor.breach(int(par["warn_check"]), float(par["warn_value"]), int(par["warn_where"]), self.scene,
+                               self._limits, step=before + int(par["warn_step"]))
+        par["warn_check"], par["warn_step"] = layout.CHECK_OK, -1
+        return found
 
     def _note_released(self) -> None:
         self.released.update(int(k) for k in np.flatnonzero(~self.arrays.pin_active))
@@ -214,10 +236,11 @@ class ParticleBackend:
 
     def _run_user(self, count, rows, out_x, out_v, pins, targets, until_release) -> tuple:
         """:func:`kernels.run_steps`' steps piece by piece (:func:`kernels.run_phase`), with PBD's user constraints
-        projected in Python after the built-in ones in every iteration. Returns (steps, rows stored, failure)."""
+        projected in Python after the built-in ones in every iteration. Returns (steps, rows stored, failure, warning)."""
         S, a, s, par = self.state, self.arrays, self.settings, self._par
         n = s.substeps
         stored = 0
+        warning = None
         host = self._host is not None
         for step in range(count):
             if step < len(targets):
@@ -240,18 +263,22 @@ class ParticleBackend:
                 if host and kernels.run_phase(S, layout.PHASE_HOST_AFTER, sub, n):
                     break
             passed = kernels.run_phase(S, kernels.STEP_END, 0, 1)
+            if warning is None and par["warn_check"] != layout.CHECK_OK:
+                par["warn_step"] = 1
+                warning = self._warning(step)
             if stored < len(rows) and rows[stored] == step + 1:
                 out_x[stored], out_v[stored] = a.x, a.v
                 stored += 1
             if released:
                 self._note_released()
             if par["warning"] >= 0:
-                return step + 1, stored, host_world.reason(par["warning"])
+                return step + 1, stored, monitor.Breach("MuJoCo warning", math.nan,
+                                                        host_world.reason(par["warning"])), warning
             if not passed:
-                return step + 1, stored, check_failure(par["check"], par["check_value"])
+                return step + 1, stored, self._breach(), warning
             if until_release and released:
-                return step + 1, stored, None
-        return count, stored, None
+                return step + 1, stored, None, warning
+        return count, stored, None, warning
 
     def _pose(self) -> None:
         """Pose the proxy capsules from the particles and run MuJoCo's kinematics (what ``mj_collision`` needs)."""

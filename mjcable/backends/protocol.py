@@ -13,12 +13,9 @@ from typing import Optional, Protocol, runtime_checkable
 import mujoco
 import numpy as np
 
-from mjcable.solvers.monitor_kernels import CHECK_DISTANCE, CHECK_NON_FINITE, CHECK_SPEED
+from mjcable.monitor import MAX_DISTANCE, MAX_SPEED, Breach
 
-__all__ = ["Backend", "RunResult", "check_failure", "MAX_SPEED", "MAX_DISTANCE"]
-
-MAX_SPEED = 200.0  # m/s: a cable particle faster than this has diverged
-MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
+__all__ = ["Backend", "RunResult", "MAX_SPEED", "MAX_DISTANCE"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -28,24 +25,15 @@ class RunResult:
     Attributes:
       steps: steps taken (all asked for, unless a failure or a release stopped the run).
       recorded: rows of ``out_x``/``out_v`` written.
-      failure: why the last step diverged (a failed check, a MuJoCo warning, NaNs), else ``None``.
+      failure: the check the last step failed (:class:`mjcable.monitor.Breach`: a physics check, a MuJoCo warning),
+        else ``None``.
+      warning: the first warning-level breach of the call (its ``step`` numbered within the call), else ``None``.
     """
 
     steps: int
     recorded: int
-    failure: Optional[str] = None
-
-
-def check_failure(check: int, value: float) -> Optional[str]:
-    """The divergence reason of :func:`mjcable.solvers.monitor_kernels.step_check`'s ``(check, value)``, or
-    ``None`` for a step that passed."""
-    if check == CHECK_NON_FINITE:
-        return "non-finite particle state (NaN or inf)"
-    if check == CHECK_DISTANCE:
-        return f"a particle ran off beyond {MAX_DISTANCE:g} m"
-    if check == CHECK_SPEED:
-        return f"a particle moved at {value:.3g} m/s (limit {MAX_SPEED:g} m/s)"
-    return None
+    failure: Optional[Breach] = None
+    warning: Optional[Breach] = None
 
 
 @runtime_checkable
@@ -64,7 +52,7 @@ class Backend(Protocol):
     def run(self, count: int, *, rows: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
             path: Optional[tuple] = None, until_release: bool = False) -> RunResult:
         """Take up to ``count`` steps of ``dt``, each checked (:func:`mjcable.solvers.monitor_kernels.step_check`
-        against :data:`MAX_DISTANCE` and :data:`MAX_SPEED`, and the model's own divergence signs), stopping after
+        against the limits of :func:`mjcable.monitor.limits`, and the model's own divergence signs), stopping after
         the first that fails.
 
         Args:

@@ -25,6 +25,7 @@ import traceback
 from typing import Optional
 
 from mjcable.errors import SimulationDivergedError
+from mjcable.monitor import STRAIN_FAIL
 
 __all__ = [
     "OUTCOMES",
@@ -40,7 +41,7 @@ __all__ = [
 
 OUTCOMES = ("stable", "diverged", "tunneled", "rejected")
 ENERGY_GROWTH = 0.5  # of m g L: a passive cable whose kinetic + potential energy grows by more has diverged
-STRAIN_LIMIT = 1.0  # a segment stretched to more than twice its rest length is no longer a cable
+STRAIN_LIMIT = STRAIN_FAIL  # the physics monitor's: a segment stretched to twice its rest length is no cable
 RUNAWAY_SPEED = 50.0  # m/s on top of the driven speed: a particle faster than this has run away
 RESET_TOLERANCE = 0.5  # in steps: MuJoCo's clock may lag the simulator's by this much before we call it a reset
 DEFECTS = (ImportError, NotImplementedError, AttributeError, NameError, TypeError)
@@ -102,7 +103,7 @@ def classify_exception(exc: BaseException, *, building: bool) -> tuple:
     if isinstance(exc, DEFECTS):
         raise exc
     if isinstance(exc, SimulationDivergedError):
-        return "diverged", exc.reason
+        return "diverged", f"{exc.check}: {exc.reason}"
     if isinstance(exc, ValueError) and building and _raised_by_mjcable(exc):
         return "rejected", f"ValueError: {exc}"
     tail = traceback.format_exception_only(type(exc), exc)[-1].strip()

@@ -33,7 +33,7 @@ from mjcable.bench.case import Case
 from mjcable.bench.outcome import ENERGY_GROWTH, RESET_TOLERANCE, RUNAWAY_SPEED, STRAIN_LIMIT, Limits, \
     classify_exception, judge
 from mjcable.bench.results import empty_row
-from mjcable.errors import SimulationDivergedError
+from mjcable.errors import PhysicsWarning
 from mjcable.simulator import Simulator
 
 __all__ = ["run_case", "warm_up_models", "SAMPLE_INTERVAL", "CALL_INTERVAL"]
@@ -159,47 +159,51 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
     step_wall = 0.0
     steps = 0
     reason, outcome = "", "stable"
-    try:
-        while steps < total_steps and outcome == "stable":
-            driving = steps * dt < drive_end + dt
-            count = min(per_sample, total_steps - steps)
-            path = None
-            if scenario.drive is not None:
-                scenario.drive(sim, steps * dt, params)
-                if driving:
-                    count = 1  # the drive acts between steps while it is active
-            elif scenario.gripper_path is not None and driving:
-                path = scenario.gripper_path(scene, (steps + np.arange(count)) * dt, params)
-            t0 = time.perf_counter()
-            if scenario.drive is None and path is None and sim.family == "particle":
-                samples = _sample_chunk(sim, min(per_call, total_steps - steps), per_sample)
-            else:
-                samples = _sample_pair(sim, count, path)
-            step_wall += time.perf_counter() - t0
-            start, steps = steps, steps + samples[-1][0]
-            row.update(step_wall_s=step_wall, sim_time=steps * dt, steps=steps)  # progress, kept on a time cap
-            last = len(samples) - 1
-            for k, (taken, previous, x) in enumerate(samples):
-                at = start + taken
-                strain = metrics.max_strain(x, l0)
-                max_strain = max(max_strain, strain)
-                max_pen = max(max_pen, metrics.penetration(x, scene))
-                if scenario.needs_com_x:
-                    times.append(at * dt)
-                    com_x.append(float(np.dot(masses, x[:, 0]) / masses.sum()))
-                verdict = judge(limits, time=at * dt, strain=strain,
-                                speed=float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt,
-                                energy_growth=metrics.energy(x, previous, dt, masses) - e_ref,
-                                mj_time=float(sim.mj_data.time) if k == last else at * dt,
-                                crossed=int(np.sum(metrics.crossed(x, scene, x0))))
-                if verdict is not None:
-                    outcome, reason = verdict
-                    break
-            _check_deadline(deadline)
-    except SimulationDivergedError as exc:
-        outcome, reason = "diverged", exc.reason
-    except Exception as exc:  # noqa: BLE001 - classified (defects re-raised)
-        outcome, reason = classify_exception(exc, building=False)
+    with warnings.catch_warnings(record=True) as heard:  # the physics monitor's warnings classify the run too
+        warnings.simplefilter("always", PhysicsWarning)
+        try:
+            while steps < total_steps and outcome == "stable":
+                driving = steps * dt < drive_end + dt
+                count = min(per_sample, total_steps - steps)
+                path = None
+                if scenario.drive is not None:
+                    scenario.drive(sim, steps * dt, params)
+                    if driving:
+                        count = 1  # the drive acts between steps while it is active
+                elif scenario.gripper_path is not None and driving:
+                    path = scenario.gripper_path(scene, (steps + np.arange(count)) * dt, params)
+                t0 = time.perf_counter()
+                if scenario.drive is None and path is None and sim.family == "particle":
+                    samples = _sample_chunk(sim, min(per_call, total_steps - steps), per_sample)
+                else:
+                    samples = _sample_pair(sim, count, path)
+                step_wall += time.perf_counter() - t0
+                start, steps = steps, steps + samples[-1][0]
+                row.update(step_wall_s=step_wall, sim_time=steps * dt, steps=steps)  # progress, kept on a time cap
+                last = len(samples) - 1
+                for k, (taken, previous, x) in enumerate(samples):
+                    at = start + taken
+                    strain = metrics.max_strain(x, l0)
+                    max_strain = max(max_strain, strain)
+                    max_pen = max(max_pen, metrics.penetration(x, scene))
+                    if scenario.needs_com_x:
+                        times.append(at * dt)
+                        com_x.append(float(np.dot(masses, x[:, 0]) / masses.sum()))
+                    verdict = judge(limits, time=at * dt, strain=strain,
+                                    speed=float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt,
+                                    energy_growth=metrics.energy(x, previous, dt, masses) - e_ref,
+                                    mj_time=float(sim.mj_data.time) if k == last else at * dt,
+                                    crossed=int(np.sum(metrics.crossed(x, scene, x0))))
+                    if verdict is not None:
+                        outcome, reason = verdict
+                        break
+                _check_deadline(deadline)
+        except Exception as exc:  # noqa: BLE001 - classified, the monitor's errors too (defects re-raised)
+            outcome, reason = classify_exception(exc, building=False)
+    monitored = [str(w.message) for w in heard if issubclass(w.category, PhysicsWarning)]
+    if outcome == "stable" and monitored:
+        tunnelled = [text for text in monitored if ": depth at step" in text]
+        outcome, reason = ("tunneled", tunnelled[0]) if tunnelled else ("stable", "; ".join(monitored))
     row.update(outcome=outcome, reason=reason, max_strain=max_strain, max_penetration=max_pen,
                step_wall_s=step_wall, sim_time=steps * dt, steps=steps,
                wall_per_sim_s=step_wall / (steps * dt) if steps else math.nan)

@@ -26,7 +26,7 @@ class NativeSettings:
     self_collision: bool = False
 
     def __post_init__(self):
-        _validate.integer("substeps", self.substeps, low=1)
+        _validate.integer("substeps", self.substeps, low=1, high=_validate.MAX_SUBSTEPS)
         _validate.boolean("self_collision", self.self_collision)
 
 

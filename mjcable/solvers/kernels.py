@@ -57,9 +57,9 @@ from mjcable.solvers.host_kernels import host_after, host_before, host_begin_ste
 from mjcable.solvers.kernels_layout import (
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
     PHASE_BEGIN, PHASE_END, PHASE_HOST_AFTER, PHASE_HOST_BEFORE, PHASE_ITERATE, QUERY_COMPILED, QUERY_PYTHON,
-    RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, SolverState,  # noqa: F401
+    RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, WARN_STRAIN, SolverState,  # noqa: F401
 )
-from mjcable.solvers.monitor_kernels import step_check
+from mjcable.solvers.monitor_kernels import contact_depth, step_check
 from mjcable.solvers.query_kernels import query_holds, query_obstacles, self_contacts
 
 __all__ = ["SolverState", "run_steps", "run_phase", "substep", "begin_substep", "iterate", "end_substep",
@@ -429,16 +429,23 @@ def _step_contacts(S, given):
 def _end_step(S):
     """After a step's substeps: the pins' start moves to their target (a gripper move spreads over one step), the
     clock advances (a user world's ``mj_step`` keeps its own), and the divergence checks
-    (:func:`~mjcable.solvers.monitor_kernels.step_check` into ``par.check``, ``par.check_value``). Returns whether
-    the step passed them."""
+    (:func:`~mjcable.solvers.monitor_kernels.step_check` and :func:`~mjcable.solvers.monitor_kernels.contact_depth`
+    into ``par.check``, ``par.check_value``, ``par.check_where``; the first warning-level check into ``par.warn_*``,
+    its ``warn_step`` 0 for the caller to number). Returns whether the step passed the checks that stop a run."""
     P = S.par[0]
     pin_from, pin_to = S.pin_from, S.pin_to
     for q in range(pin_to.shape[0]):
         pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
     if not P.host:
         P.time += P.dt
-    check, value = step_check(S.x, S.v, S.prev, P.dt, P.max_distance, P.max_speed)
-    P.check, P.check_value = check, value
+    check, value, where = step_check(S.x, S.v, S.prev, S.rest, S.pin_p, S.pin_to, S.pin_active, S.par)
+    if check == CHECK_OK and P.depth_check and P.n_con > 0:
+        check, value, where = contact_depth(S)
+    if check >= WARN_STRAIN:  # a warning: the first of the call is kept for Python, the run goes on
+        if P.warn_check == CHECK_OK:
+            P.warn_check, P.warn_value, P.warn_where, P.warn_step = check, value, where, 0
+        check = CHECK_OK
+    P.check, P.check_value, P.check_where = check, value, where
     return check == CHECK_OK
 
 
@@ -484,6 +491,8 @@ def run_steps(S, n_steps, given, rows, out_x, out_v, path, path_pins, until_rele
         let_go = _substeps(S)
         released += let_go
         passed = _end_step(S)
+        if P.warn_step == 0:
+            P.warn_step = k + 1
         if stored < rows.shape[0] and rows[stored] == k + 1:
             out_x[stored, :, :] = S.x
             out_v[stored, :, :] = S.v

@@ -37,9 +37,12 @@ QUERY_NONE, QUERY_COMPILED, QUERY_PYTHON = 0, 1, 2
 # What a run of steps stopped on (kernels.run_steps): all steps taken, a divergence check, a step that needs a
 # Python query, a socket that let go (until_release), a MuJoCo warning of the user world.
 RUN_DONE, RUN_DIVERGED, RUN_QUERY, RUN_RELEASED, RUN_WARNING = 0, 1, 2, 3, 4
-# The divergence checks of a step (monitor_kernels.step_check): passed, non-finite state, a particle too far from
-# the origin, a particle too fast.
-CHECK_OK, CHECK_NON_FINITE, CHECK_DISTANCE, CHECK_SPEED = 0, 1, 2, 3
+# The physics checks of a step (monitor_kernels.step_check): passed, then the breaches that stop a run (non-finite
+# state, a particle too far from the origin, a particle's travel too fast, the model's own velocity too fast, a pinned
+# particle torn from its pin, a segment stretched beyond the model's limit), then those that warn once (a segment
+# stretched beyond what the model promises, the centreline inside an obstacle).
+CHECK_OK, CHECK_NON_FINITE, CHECK_DISTANCE, CHECK_SPEED, CHECK_VELOCITY, CHECK_PIN, CHECK_STRAIN = 0, 1, 2, 3, 4, 5, 6
+WARN_STRAIN, WARN_DEPTH = 7, 8
 # The pieces of a step a Python caller takes one by one (PBD's user constraints: kernels.run_phase).
 PHASE_BEGIN, PHASE_ITERATE, PHASE_END, PHASE_HOST_BEFORE, PHASE_HOST_AFTER = 0, 1, 2, 3, 4
 # MuJoCo's geom type codes (mujoco.mjtGeom) that the contact kernels measure exactly.
@@ -68,6 +71,10 @@ PARAMS = np.dtype([
     # the step: dt (s), divergence limits (m from the origin, m/s), the contact query's margin (m) and what gravity
     # adds to one step's travel, ½ g dt² (m)
     ("dt", "f8"), ("max_distance", "f8"), ("max_speed", "f8"), ("contact_margin", "f8"), ("fall", "f8"),
+    # the physics monitor's limits (mjcable.monitor.Limits): a segment's strain that stops a run and the one that
+    # warns, the distance (m) at which a pinned particle counts as torn from its pin, and whether to look for the
+    # centreline inside an obstacle
+    ("strain_fail", "f8"), ("strain_warn", "f8"), ("tear", "f8"), ("depth_check", "?"),
     ("self_collision", "?"), ("query", "i8"),  # QUERY_*
     # the last obstacle query's margin (m; −inf: none to keep), kept by the steps whose pairs it still holds
     # (query_kernels.query_holds), whether queries may be kept (static obstacles, no user world), and the slack (m)
@@ -88,6 +95,10 @@ PARAMS = np.dtype([
     # simulated time (s)
     ("n_con", "i8"), ("n_self", "i8"), ("queries", "i8"), ("margin", "f8"), ("warning", "i8"), ("check", "i8"),
     ("check_value", "f8"), ("time", "f8"),
+    # where the check that stopped a step found it (segment, pin or particle; −1: nowhere in particular), and the first
+    # warning-level check of a run call (WARN_*; CHECK_OK: none yet), what it measured, where, and the step of the call
+    # (1-based) it came in; Python reads and clears them after each call
+    ("check_where", "i8"), ("warn_check", "i8"), ("warn_value", "f8"), ("warn_where", "i8"), ("warn_step", "i8"),
     # the direct order's geometric stiffness (direct_kernels: the stretch rows' transverse rows): whether the model's
     # multipliers carry it (XPBD), the half-bandwidth of the rows with it, whether the last solve found the tension
     # stiff (its multipliers then in lam_gs; False from the start and after a reset), and a read-out: the direct solves taken since the start

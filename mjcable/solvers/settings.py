@@ -78,8 +78,8 @@ class ParticleSettings:
     self_collision: bool = False
 
     def __post_init__(self):
-        _validate.integer("substeps", self.substeps, low=1)
-        _validate.integer("iterations", self.iterations, low=1)
+        _validate.integer("substeps", self.substeps, low=1, high=_validate.MAX_SUBSTEPS)
+        _validate.integer("iterations", self.iterations, low=1, high=_validate.MAX_SUBSTEPS)
         _validate.choice("order", self.order, ORDERS)
         _validate.number("omega", self.omega, low=0.0, high=_MAX_OMEGA, low_open=True)
         _validate.choice("bending", self.bending, BENDING_KINDS)

@@ -185,7 +185,8 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             order=ORDER_CODES[settings.order], bending=BENDING_CODES[rules.bending], sqrt_approx=rules.sqrt_approx,
             direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
             gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, direct_solves=0,
-            max_distance=math.inf, max_speed=math.inf, contact_margin=settings.contact_margin,
+            max_distance=math.inf, max_speed=math.inf, strain_fail=math.inf, strain_warn=math.inf, tear=math.inf,
+            check_where=-1, warn_where=-1, warn_step=-1, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
             query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1).items():
         P[name] = value
