@@ -9,6 +9,7 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from mjcable import _mujoco_log, catalog, mjcf, scenes, solvers  # noqa: E402
+from mjcable.backends.protocol import Energy  # noqa: E402
 from mjcable.batch import Batch, BatchTrajectory  # noqa: E402
 from mjcable.catalog import build  # noqa: E402
 from mjcable.errors import PhysicsWarning, SimulationDivergedError  # noqa: E402
@@ -34,6 +35,7 @@ __all__ = [
     "build",
     "Simulator",
     "Trajectory",
+    "Energy",
     "Batch",
     "BatchTrajectory",
     "SimulationDivergedError",

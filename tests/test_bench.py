@@ -104,6 +104,23 @@ def test_chain_scene_starts_in_mode_one():
     assert scene.cable.length == pytest.approx(1.0, abs=1e-3)
 
 
+def test_swing_energy_is_the_starts_height_above_hanging_straight():
+    # a straight chain tilted by θ from the vertical holds M g (L / 2)(1 − cos θ) above hanging straight down
+    theta, top = 0.3, scenarios.CHAIN_TOP
+    points = [[0.0, 0.0, top], [math.sin(theta), 0.0, top - math.cos(theta)]]
+    scene = Scene(CableSpec(points, 10, 0.005, 0.1), pins=(mjcable.Pin(0),))
+    assert scenarios.swing_energy(scene) == pytest.approx(0.1 * 9.81 * 0.5 * (1 - math.cos(theta)), rel=1e-12)
+
+
+def test_energy_scenario_measures_the_change_of_the_simulators_energy():
+    # springs conserve the swing's energy (symplectic Euler); XPBD at one substep damps it numerically
+    rows = {m: run_case(Case("energy", m, 0.002, settings=s, params=(("duration", 2.0),)))
+            for m, s in (("springs", ()), ("xpbd", (("substeps", 1),)))}
+    assert rows["springs"]["outcome"] == rows["xpbd"]["outcome"] == "stable"
+    assert rows["springs"]["error"] < 0.005
+    assert rows["xpbd"]["error"] > 0.02
+
+
 # ------------------------------------------------------------------------------------------------ stepping
 
 @pytest.mark.parametrize("model", ["springs", "xpbd"])

@@ -163,7 +163,7 @@ def test_energy_of_a_free_fall_is_conserved_and_damping_only_removes_it(model):
     cable = mjcable.CableSpec([[0, 0, 2], [1, 0, 2]], 10, 0.005, 0.1)
     sim = mjcable.Simulator(mjcable.Scene(cable), model, dt=0.001)
     e0 = sim.energy()
-    assert e0 == pytest.approx(cable.mass * G * 2.0, rel=1e-6)  # at rest at z = 2: m g z (Verlet: v₀ = −½ g h)
+    assert e0 == pytest.approx(cable.mass * G * 2.0, rel=1e-6)  # at rest at z = 2: m g z
     sim.step(0.3)
     assert sim.energy() == pytest.approx(e0, abs=0.02 * cable.mass * G * 0.3**2 * G / 2)
     damped = mjcable.Simulator(mjcable.scenes.get("hang", n_segments=10, damping=5.0), model)

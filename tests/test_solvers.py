@@ -45,7 +45,7 @@ def test_free_fall_follows_the_integrators_exact_path(model, settings, verlet):
     z0 = _com(sim)[2]
     sim.step(0.6)
     t, h = sim.time, sim.dt / sim.settings.substeps
-    # Verlet started from x₋₁ = x₀ + ½ g h² is exact for constant gravity; semi-implicit Euler from rest falls an
+    # Verlet started by Taylor's x₁ = x₀ + ½ g h² is exact for constant gravity; semi-implicit Euler from rest falls an
     # extra ½ g t h: z = z₀ − g h² k(k+1)/2 after k substeps.
     expected = z0 - 0.5 * G * t * t - (0.0 if verlet else 0.5 * G * t * h)
     assert _com(sim)[2] == pytest.approx(expected, abs=1e-9)

@@ -11,7 +11,8 @@ Read-outs, all from MuJoCo's own state:
   kinematic tree realises (the root of a capsule chain) exerts the force its parent transmits to the root body
   (``cfrc_int`` after ``mj_rnePostConstraint``). Either way the pinned particle's own weight is included;
 * pin torques: a clamp held by two connects exerts (x_j − x_i) × f_clamp about its particle; a welded root the
-  transmitted torque moved to the particle.
+  transmitted torque moved to the particle;
+* energy: the cable's own kinetic, gravitational and elastic energy (:mod:`mjcable.backends.native_energy`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ import mujoco
 import numpy as np
 
 from mjcable import monitor
-from mjcable.backends.protocol import RunResult
+from mjcable.backends.native_energy import CableEnergy
+from mjcable.backends.protocol import Energy, RunResult
 from mjcable.mjcf import world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
@@ -121,6 +123,7 @@ class NativeBackend:
         self._cable_geoms = np.isin(m.geom_bodyid, cable_bodies[cable_bodies > 0])
         held = [_name2id(m, mujoco.mjtObj.mjOBJ_BODY, pin.body) for pin in scene.pins if pin.kind == "body"]
         self._held_geoms = np.isin(m.geom_bodyid, held)
+        self._energy = CableEnergy(m, self._sites, scene)
         self.reset()
 
     # -- the step -------------------------------------------------------------------------------------------------
@@ -274,6 +277,11 @@ class NativeBackend:
 
     def particle_masses(self) -> np.ndarray:
         return self.scene.cable.particle_masses + self._added
+
+    def energy(self) -> Energy:
+        """The cable's energy: MuJoCo's own terms restricted to the cable, plus flex bending and the cable plugin
+        (:mod:`mjcable.backends.native_energy`)."""
+        return self._energy(self.mj_model, self.mj_data, self.positions())
 
     def _tree_wrench(self, k: int) -> np.ndarray:
         """(6,) [torque about the pinned particle, force] that the holder (world or gripper) transmits to the

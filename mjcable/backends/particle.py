@@ -24,11 +24,12 @@ import numpy as np
 
 from mjcable.backends import host as host_world
 from mjcable import monitor
-from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, RunResult
+from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Energy, RunResult
 from mjcable.mjcf import proxy, world
 from mjcable.scene import Scene
 from mjcable.solvers import capi, kernels, kernels_layout as layout, query_kernels
 from mjcable.solvers.contacts import ObstacleContacts
+from mjcable.solvers.energy import elastic_energy
 from mjcable.solvers.settings import ParticleSettings
 from mjcable.solvers.state import StateArrays, chain_arrays
 from mjcable.solvers.user_constraints import iteration_factor
@@ -303,6 +304,16 @@ class ParticleBackend:
 
     def particle_masses(self) -> np.ndarray:
         return self.arrays.mass.copy()
+
+    def energy(self) -> Energy:
+        """½ Σ mᵢ|vᵢ|², −Σ mᵢ g·xᵢ and the constraint rows' potential (:mod:`mjcable.solvers.energy`: XPBD's
+        ½ C²/α; PBD's and Jakobsen's factors as the compliance they act with; hard rows none)."""
+        a = self.arrays
+        par = self._par
+        g = np.array([par["gx"], par["gy"], par["gz"]], dtype=np.float64)
+        stretch, bending = elastic_energy(a)
+        return Energy(kinetic=0.5 * float(np.sum(a.mass * np.einsum("ij,ij->i", a.v, a.v))),
+                      gravity=-float(np.sum(a.mass * (a.x @ g))), stretch=stretch, bending=bending)
 
     def gripper_positions(self) -> np.ndarray:
         return self.mj_data.mocap_pos[self._gripper_mocap].copy()

@@ -15,7 +15,7 @@ import numpy as np
 
 from mjcable.monitor import MAX_DISTANCE, MAX_SPEED, Breach
 
-__all__ = ["Backend", "RunResult", "MAX_SPEED", "MAX_DISTANCE"]
+__all__ = ["Backend", "Energy", "RunResult", "MAX_SPEED", "MAX_DISTANCE"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -34,6 +34,36 @@ class RunResult:
     recorded: int
     failure: Optional[Breach] = None
     warning: Optional[Breach] = None
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Energy:
+    """A cable's energy in joules by kind (:meth:`mjcable.Simulator.energy` with ``parts=True``), each from the
+    model's own state and its own potential (README, "Energy").
+
+    Attributes:
+      kinetic: ½ Σ mᵢ|vᵢ|² of the particles (particle solvers, ``springs``, ``flexrod``); for the capsule chains
+        (``joints``, ``composite``) ½ q̇ᵀ M q̇ over the cable's joints: its bodies' translation and rotation and the
+        ball joints' armature.
+      gravity: −Σ mᵢ g·xᵢ over the cable's masses (zero at the world origin).
+      stretch: elastic energy of the segments' stretch (zero where a model holds them rigid or by a hard constraint).
+      bending: elastic energy of bending (clamps included).
+      twist: elastic energy of torsion (``joints``, ``composite``; zero where a model has no frames).
+      total: the sum of the five.
+    """
+
+    kinetic: float
+    gravity: float
+    stretch: float = 0.0
+    bending: float = 0.0
+    twist: float = 0.0
+    total: float = dataclasses.field(init=False)
+
+    def __post_init__(self):
+        for name in ("kinetic", "gravity", "stretch", "bending", "twist"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        object.__setattr__(self, "total", self.kinetic + self.gravity + self.stretch + self.bending + self.twist)
+
 
 
 @runtime_checkable
@@ -76,6 +106,10 @@ class Backend(Protocol):
 
     def particle_masses(self) -> np.ndarray:
         """``(n_segments + 1,)`` lumped masses in kg, added point masses included."""
+
+    def energy(self) -> Energy:
+        """The cable's energy now, by kind, from the model's own state and potential (the cable's alone, not the
+        rest of a user world)."""
 
     def pin_forces(self) -> np.ndarray:
         """``(n_pins, 3)`` force in newtons each pin exerts on the cable; zero rows for released sockets."""

@@ -290,7 +290,8 @@ def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float 
           "",
           "Errors: `catenary`, `cantilever`, `table`, `drape`: RMS distance (m) of the particles to the reference "
           "(catenary, heavy elastica, ideal rest on the table, ideal drape over the peg); `chain`: relative error "
-          "of the mode-1 angular frequency. Cost: wall time of the stepping per simulated second.\n",
+          "of the mode-1 angular frequency; `energy`: the largest change of `Simulator.energy()` over 10 s of an "
+          "undamped swing, relative to the swing's energy. Cost: wall time of the stepping per simulated second.\n",
           "## Pareto fronts\n", plots.pareto_markdown(accuracy)]
     cost_keys = {c.key for c in cost_cases(models=[m for m in dict.fromkeys(r["model"] for r in rows)
                                                    if m in case_mod.MODEL_LABELS])}

@@ -9,7 +9,8 @@ positions recorded inside it); a native model, whose steps are a Python loop any
 sample for the silent-reset check and costs no recorded velocities. A scenario's ``gripper_path`` goes to
 :meth:`~mjcable.Simulator.step_along` in the same pairs; a general ``drive`` acts before every sample (every step
 while active). Either way the state is sampled every :data:`SAMPLE_INTERVAL` of simulated time (or every step,
-whichever is longer), together with the positions one step before it (finite-difference speeds and energies).
+whichever is longer), together with the positions one step before it (finite-difference speeds and energies); a
+scenario that ``needs_energy`` also records :meth:`~mjcable.Simulator.energy` after every call.
 
 The time cap is a deadline checked between the runner's calls (after the build and after every call of the
 simulator), not a signal: it works in any thread, e.g. on a Dask worker's thread (:mod:`mjcable.bench.sweep`). It
@@ -156,6 +157,7 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
     max_strain = metrics.max_strain(x, l0)
     max_pen = metrics.penetration(x, scene)
     times, com_x = [0.0], [float(np.dot(masses, x[:, 0]) / masses.sum())]
+    energies = [sim.energy()] if scenario.needs_energy else []
     step_wall = 0.0
     steps = 0
     reason, outcome = "", "stable"
@@ -178,6 +180,8 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
                 else:
                     samples = _sample_pair(sim, count, path)
                 step_wall += time.perf_counter() - t0
+                if scenario.needs_energy:
+                    energies.append(sim.energy())
                 start, steps = steps, steps + samples[-1][0]
                 row.update(step_wall_s=step_wall, sim_time=steps * dt, steps=steps)  # progress, kept on a time cap
                 last = len(samples) - 1
@@ -219,7 +223,7 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
     row["final_strain"] = metrics.max_strain(x, l0)
     row["residual_speed"] = float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt
     if scenario.evaluate is not None:
-        history = {"times": np.array(times), "com_x": np.array(com_x)}
+        history = {"times": np.array(times), "com_x": np.array(com_x), "energy": np.array(energies)}
         try:
             row["error"] = float(scenario.evaluate(scene, x, history))
         except Exception as exc:  # noqa: BLE001 - a failed measurement is recorded, not raised

@@ -1,6 +1,6 @@
 """Benchmark scenarios: a scene, how long to run it, what to drive, and its error against an independent reference.
 
-The accuracy scenarios (:data:`SCENARIOS`), first five of shape and frequency:
+The accuracy scenarios (:data:`SCENARIOS`), first five of shape and frequency and one of energy:
 
 * ``catenary``: the ``hang`` scene damped to rest; error = RMS distance in metres of the particles to the
   inextensible catenary (:func:`mjcable.reference.catenary`).
@@ -14,6 +14,13 @@ The accuracy scenarios (:data:`SCENARIOS`), first five of shape and frequency:
 * ``drape``: the ``drape`` scene (a straight cable falls onto a peg); error = RMS distance in metres of the
   particles to the ideal drape (two vertical strands hanging from the peg,
   :func:`mjcable.reference.drape_rest_distance`).
+* ``energy``: the ``chain`` released from a 20 cm mode-1 swing (:data:`ENERGY_AMPLITUDE`), undamped (damping 0;
+  ``joints`` and ``composite`` keep their ball joints' whip damping, ``flexrod`` its edge equality's), for
+  :data:`ENERGY_DURATION` s; error = the largest change of :meth:`mjcable.Simulator.energy` (kinetic + gravity +
+  the model's own elastic energy) from its start, relative to the swing's energy, the start's energy above the
+  chain hanging straight down (:func:`swing_energy`). A conservative integrator keeps it near 0; the implicit
+  particle solvers lose energy by numerical damping, faster at larger substeps; an unconverged Gauss-Seidel chain
+  also stretches, which lowers its weight's energy (its hard rows store none).
 
 And the contact families (scenes and measurements in :mod:`mjcable.bench.contact`):
 
@@ -69,6 +76,9 @@ __all__ = [
     "swing_scene",
     "fit_frequency",
     "CHAIN_AMPLITUDE",
+    "ENERGY_AMPLITUDE",
+    "ENERGY_DURATION",
+    "swing_energy",
     "CANTILEVER_YOUNG",
     "CAPSTAN_MUS",
     "CAPSTAN_QUICK_MU",
@@ -80,6 +90,8 @@ MASS = 0.1  # kg per metre of cable
 CHAIN_TOP = 1.5  # m, height of the chain's pin
 CHAIN_AMPLITUDE = 0.01  # m, mode-1 displacement of the free end (1 % of L: frequency shift ~(A/L)² = 1e-4)
 CHAIN_CONTROL_POINTS = 9
+ENERGY_AMPLITUDE = 0.2  # m, the energy scenario's mode-1 displacement of the free end (swing energy ≈ 7.6 mJ)
+ENERGY_DURATION = 10.0  # s
 _FFT_PADDING = 16  # zero padding of the chain's periodogram (finer first guess of the frequency)
 CANTILEVER_YOUNG = 1e9  # Pa: q L³ / (E I) = 0.981 / (1e9 · 4.9e-10) ≈ 2.0, a large deflection (δ ≈ 0.23 L)
 CANTILEVER_HEIGHT = 1.0  # m
@@ -131,6 +143,8 @@ class Scenario:
       passive: no energy is injected (energy growth means divergence).
       setup: optional ``(sim, params) → None`` applied once after the simulator is built (e.g. an end load).
       needs_com_x: sample the centre of mass's x for ``evaluate`` (the chain's frequency).
+      needs_energy: sample :meth:`mjcable.Simulator.energy` for ``evaluate`` (``history["energy"]``, J, at the start
+        and after every call of the simulator).
       strain_limit: segment strain beyond which the run counts as diverged (``None``: the sweep's
         ``STRAIN_LIMIT``; ``math.inf`` for the stiffness-effect grid, whose point is to show the stretch).
       in_quick: run in ``--quick`` sweeps (accuracy scenarios).
@@ -152,6 +166,7 @@ class Scenario:
     passive: bool = True
     setup: Optional[Callable] = None
     needs_com_x: bool = False
+    needs_energy: bool = False
     strain_limit: Optional[float] = None
     in_quick: bool = True
     quick_params: tuple = ()
@@ -298,6 +313,21 @@ def _drape_error(scene: Scene, x: np.ndarray, history: dict) -> float:
     return float(np.sqrt(np.mean(d**2)))
 
 
+def swing_energy(scene: Scene) -> float:
+    """The energy in J that a chain hanging from a pin at its top (``chain_scene``) holds at its start above its
+    rest, hanging straight down: M g (z_c − (z_pin − L / 2)), z_c the start's centre of mass (an inextensible
+    chain; lumped masses put the straight chain's centre of mass at its middle)."""
+    cable = scene.cable
+    m = cable.particle_masses
+    z_pin = float(cable.particles[scene.pin_particle(0), 2])
+    return cable.mass * reference.G * (float(m @ cable.particles[:, 2]) / cable.mass - (z_pin - cable.length / 2))
+
+
+def _energy_drift(scene: Scene, x: np.ndarray, history: dict) -> float:
+    energy = history["energy"]
+    return float(np.max(np.abs(energy - energy[0]))) / swing_energy(scene)
+
+
 def _capstan_setup(sim, params: dict) -> None:
     """Hand the run's simulator and bisection steps to the measurement (:func:`_capstan_error`)."""
     sim.scene.runs.update(sim=sim, steps=int(params.get("steps", CAPSTAN_STEPS)))
@@ -387,6 +417,11 @@ SCENARIOS: Dict[str, Scenario] = {
         Scenario("chain", "chain pinned at its top swinging in mode 1; relative error of ω₁",
                  lambda n, p: chain_scene(n), duration=5.0, quick_duration=3.5, error_kind="relative",
                  evaluate=_chain_error, needs_com_x=True),
+        Scenario("energy", "chain pinned at its top, released from a 20 cm mode-1 swing, undamped; largest change of "
+                 "Simulator.energy() over 10 s, relative to the swing's energy",
+                 lambda n, p: chain_scene(n, amplitude=ENERGY_AMPLITUDE), duration=ENERGY_DURATION,
+                 quick_duration=ENERGY_DURATION, error_kind="of the swing energy", evaluate=_energy_drift,
+                 needs_energy=True),
         Scenario("cantilever", "clamped horizontal rod, q L³/EI ≈ 2, damped to rest; RMS distance to the elastica",
                  lambda n, p: cantilever_scene(n), duration=3.0, quick_duration=2.0, error_kind="m",
                  evaluate=_cantilever_error),

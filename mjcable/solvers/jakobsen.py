@@ -1,10 +1,11 @@
 """``jakobsen``: Jakobsen's Verlet relaxation ("Advanced Character Physics", 2001), as in the thesis §3.4.1.
 
 Verlet integration x′ = x + e^{−c h}(x − x*) + g h² (thesis Eq. 2.7 with Jakobsen's damping, as a rate c in 1/s
-that multiplies the velocity only, never gravity), started from the exact previous position x* = x₀ + ½ g h² so
-that free fall is exact. Then ``iterations`` relaxation sweeps over the sticks with mass-weighted corrections
-(Jakobsen's ``invmass`` form), each scaled by ``stretch_factor`` k ∈ [0, 1] as is (no iteration correction: stiffness
-grows with iterations and with smaller steps, the thesis's accuracy- and timescale-stiffness effects).
+that multiplies the velocity only, never gravity), started at rest by Taylor's first step x₁ = x₀ + ½ g h² so that
+free fall is exact (the start state's velocity is a true 0, not a fictitious previous position's). Then
+``iterations`` relaxation sweeps over the sticks with mass-weighted corrections (Jakobsen's ``invmass`` form),
+each scaled by ``stretch_factor`` k ∈ [0, 1] as is (no iteration correction: stiffness grows with iterations and
+with smaller steps, the thesis's accuracy- and timescale-stiffness effects).
 ``sqrt_approx`` replaces the square root by its first-order Taylor expansion at the rest length.
 
 Bending as for ``pbd`` (curvature with a stiffness derived from E·I, or the (i, i+2) support stick); clamps hold

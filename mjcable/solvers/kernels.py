@@ -104,6 +104,18 @@ def _predict(x, v, x0, w, react, h, damp, gx, gy, gz):
 
 
 @_inline
+def _gravity_kick(P):
+    """The fraction of gravity's velocity h g this substep's prediction adds: ½ for Verlet's first substep from the
+    start state (``par.verlet_start``, cleared here), so that x₁ = x₀ + h v₀ + ½ g h² (Taylor; free fall exact,
+    and the start state's velocity a true 0), else 1. Verlet afterwards reads its velocity from the previous
+    position, v = (x − x_prev) / h."""
+    if P.verlet_start:
+        P.verlet_start = False
+        return 0.5
+    return 1.0
+
+
+@_inline
 def _move_pins(S, sub, n_sub):
     """Held particles to their pin targets, interpolated linearly across the step (substep ``sub`` of ``n_sub``
     reaches ``(sub + 1) / n_sub`` of the way from ``pin_from`` to ``pin_to``), every pinned particle's reaction
@@ -131,7 +143,8 @@ def begin_substep(S, sub, n_sub):
     """Predict (:func:`_predict`), move held particles to their pin targets (:func:`_move_pins`) and reset the
     multipliers (every substep, [M16] Algorithm 1)."""
     P = S.par[0]
-    _predict(S.x, S.v, S.x0, S.w, S.react, P.h, P.damp, P.gx, P.gy, P.gz)
+    kick = _gravity_kick(P)
+    _predict(S.x, S.v, S.x0, S.w, S.react, P.h, P.damp, kick * P.gx, kick * P.gy, kick * P.gz)
     _move_pins(S, sub, n_sub)
     S.lam_s[:] = 0.0
     S.lam_d[:] = 0.0
@@ -291,7 +304,8 @@ def plain_substep(S, sub, n_sub):
     P = S.par[0]
     x, w, react, lam_s = S.x, S.w, S.react, S.lam_s
     h = P.h
-    _predict(x, S.v, S.x0, w, react, h, P.damp, P.gx, P.gy, P.gz)
+    kick = _gravity_kick(P)
+    _predict(x, S.v, S.x0, w, react, h, P.damp, kick * P.gx, kick * P.gy, kick * P.gz)
     _move_pins(S, sub, n_sub)
     lam_s[:] = 0.0
     at_s, k_s, sqrt_approx = P.alpha_s / (h * h), P.k_s, P.sqrt_approx

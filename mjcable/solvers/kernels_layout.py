@@ -103,6 +103,9 @@ PARAMS = np.dtype([
     # multipliers carry it (XPBD), the half-bandwidth of the rows with it, whether the last solve found the tension
     # stiff (its multipliers then in lam_gs; False from the start and after a reset), and a read-out: the direct solves taken since the start
     ("geometric", "?"), ("gs_bandwidth", "i8"), ("gs_stiff", "?"), ("direct_solves", "i8"),
+    # Verlet's start (Jakobsen, PBD's Verlet): the next substep is the first from the start state (at rest, v = 0),
+    # whose prediction is Taylor's x₁ = x₀ + h v₀ + ½ g h² (half of gravity's velocity h g); False after it
+    ("verlet_start", "?"),
 ])
 
 

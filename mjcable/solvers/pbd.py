@@ -2,8 +2,8 @@
 
 Prediction by semi-implicit Euler (default) or Verlet (``integrator``). With velocities updated from positions,
 v = (x − x_prev)/h, the two are one recurrence (x′ = x + e^{−c h}(x − x_prev) + g h²); they differ in how they
-start: Verlet from the exact previous position x₋₁ = x₀ + ½ g h² (free fall exact), Euler from rest (free fall
-off by −½ g t h). Then ``iterations`` sequential projections Δxⱼ = −k′ s wⱼ ∇ⱼC, s = C / Σ wⱼ |∇ⱼC|² (thesis
+start, both from rest (v₀ = 0): Verlet by Taylor's first step x₁ = x₀ + ½ g h² (free fall exact), Euler by
+x₁ = x₀ + g h² (free fall off by −½ g t h). Then ``iterations`` sequential projections Δxⱼ = −k′ s wⱼ ∇ⱼC, s = C / Σ wⱼ |∇ⱼC|² (thesis
 Eqs. 2.11–2.12). The factor k ∈ [0, 1] (``stretch_factor``) is applied per iteration as k′ = 1 − (1 − k)^(1/iterations) (Müller et
 al. 2007), so that a lone constraint loses the fraction k of its violation per substep whatever the iteration
 count; with many constraints fighting the result still depends on iterations and on dt: the thesis's accuracy-

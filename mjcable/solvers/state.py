@@ -36,8 +36,8 @@ class Rules:
     """What a model makes of the physical cable: the kernels' parameters.
 
     Args:
-      verlet_start: start like Verlet from the exact previous position x₋₁ = x₀ + ½ g h² (v₀ = −½ g h); else
-        semi-implicit Euler from rest (v₀ = 0).
+      verlet_start: start like Verlet, the first substep's prediction x₁ = x₀ + h v₀ + ½ g h² (Taylor; free fall
+        exact); else semi-implicit Euler, x₁ = x₀ + h v₀ + g h². The start state is at rest either way (v₀ = 0).
       alpha_stretch, alpha_bend, alpha_clamp: XPBD compliances α (stretch m/N, curvature 1/(N·m³), distance
         bending m/N, clamp 1/(N·m³)); 0 for PBD and Jakobsen.
       k_stretch, k_bend, k_clamp: per-iteration stiffness factors in [0, 1] (1 for XPBD).
@@ -156,9 +156,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     for kc, (p, q) in enumerate(clamp_pq):
         axis = x[q] - x[p]
         clamp_dir[kc] = _perpendiculars(axis / np.linalg.norm(axis))
-    v = np.zeros_like(x)
-    if rules.verlet_start:
-        v[w > 0] = -0.5 * scene.gravity * h
+    v = np.zeros_like(x)  # at rest: Verlet's start is the first substep's prediction (par.verlet_start)
     n = cable.n_segments
     l0 = cable.segment_length
     if settings.order == "direct" and rules.direct_bending:
@@ -188,7 +186,8 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             max_distance=math.inf, max_speed=math.inf, strain_fail=math.inf, strain_warn=math.inf, tear=math.inf,
             check_where=-1, warn_where=-1, warn_step=-1, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
-            query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1).items():
+            query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1,
+            verlet_start=rules.verlet_start).items():
         P[name] = value
     n_pins = len(pins)
     a = StateArrays(
