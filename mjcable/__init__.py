@@ -8,7 +8,7 @@ import os
 # it is first imported, so this must come before anything imports mujoco.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from mjcable import catalog, mjcf, scenes, solvers  # noqa: E402
+from mjcable import _mujoco_log, catalog, mjcf, scenes, solvers  # noqa: E402
 from mjcable.backends.protocol import Energy  # noqa: E402
 from mjcable.batch import Batch, BatchTrajectory  # noqa: E402
 from mjcable.catalog import build  # noqa: E402
@@ -46,6 +46,8 @@ __all__ = [
 ]
 
 __version__ = "0.1.0"
+
+_mujoco_log.route_warnings()  # MuJoCo's warnings to the logger "mjcable", not to ./MUJOCO_LOG.TXT
 
 
 _FAMILY_VIEWS = {"MODELS": None, "NATIVE_MODELS": "native", "PARTICLE_MODELS": "particle"}

@@ -42,7 +42,7 @@ import numpy as np  # noqa: E402
 import mjcable  # noqa: E402
 from mjcable import catalog, envs  # noqa: E402
 from mjcable.envs import jaco_unplug as ju  # noqa: E402
-from mjcable.io import atomic_path, atomic_write  # noqa: E402
+from mjcable.io import atomic_write  # noqa: E402
 from mjcable.render.grid import compose, grid_layout  # noqa: E402
 from mjcable.render.camera import scene_pixel_size  # noqa: E402
 from mjcable.render.overlays import add_centreline, draw_label  # noqa: E402
@@ -131,8 +131,8 @@ def write_plot(runs, path: Path) -> Path:
     bottom.legend(fontsize="small")
     for ax in (top, bottom):
         ax.grid(True, alpha=0.3)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100)
+    with atomic_write(path, "wb") as f:
+        fig.savefig(f, format="png", dpi=100)
     plt.close(fig)
     return path
 

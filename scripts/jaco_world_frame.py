@@ -5,13 +5,12 @@ Usage::
     MUJOCO_GL=egl python scripts/jaco_world_frame.py jaco_home.png --width 640 --height 480
 
 The grip and socket_plug sites (group 4, hidden by default) are drawn unless ``--no-sites`` is given. The image is
-written to a temporary file next to the target and moved into place with ``os.replace``.
+written atomically (:mod:`mjcable.io`).
 """
 
 import argparse
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -19,6 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mediapy  # noqa: E402
 import mujoco  # noqa: E402
 
+from mjcable.io import atomic_path  # noqa: E402
 from mjcable.worlds import jaco  # noqa: E402
 
 
@@ -42,15 +42,8 @@ def main() -> int:
         pixels = renderer.render()
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=args.out.parent, prefix=f".{args.out.name}.")
-    os.close(fd)
-    try:
-        mediapy.write_image(tmp, pixels)
-        os.chmod(tmp, 0o644)  # mkstemp makes it owner-only
-        os.replace(tmp, args.out)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    with atomic_path(args.out) as tmp:  # tmp may have no suffix: the format is named
+        mediapy.write_image(tmp, pixels, fmt="png")
     grip, socket = jaco.grip_and_socket(model)
     print(f"{args.out}: {args.width}x{args.height}, grip {grip.round(3)} m, socket_plug {socket.round(3)} m, "
           f"distance {float(((grip - socket) ** 2).sum() ** 0.5):.3f} m")

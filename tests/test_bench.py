@@ -8,6 +8,7 @@ import csv
 import dataclasses
 import logging
 import math
+import re
 
 import distributed
 
@@ -321,6 +322,55 @@ def test_sweep_writes_csv_and_resumes(tmp_path):
     path.write_text("\n".join(lines[:-1] + [lines[-1].replace(",stable,", ",unavailable,")]) + "\n")
     assert len(sweep.run_sweep(_tiny_cases(), path, jobs=1, progress=False)) == 1
     assert len(results.latest_rows(results.read_rows(path))) == len(case.MODEL_LABELS)
+
+
+def _complete_rows(path):
+    """The rows of the CSV at ``path``, checked line by line with the csv module (not results): every record has
+    every column and ends with its line end."""
+    data = path.read_bytes()
+    assert data.endswith(b"\r\n")
+    records = list(csv.reader(data.decode().splitlines()))
+    assert records[0] == results.COLUMNS
+    assert all(len(r) == len(results.COLUMNS) for r in records[1:]), records
+    return [dict(zip(records[0], r)) for r in records[1:]]
+
+
+@pytest.mark.parametrize("cut", ["mid_row", "line_end", "header"])
+def test_resume_removes_a_row_an_interrupted_write_cut_short(tmp_path, cut):
+    path = tmp_path / "bench.csv"
+    cases = _tiny_cases(["springs", "xpbd"])
+    sweep.run_sweep(cases, path, jobs=1, progress=False)
+    data = path.read_bytes()
+    last = data[:-2].rfind(b"\n") + 1  # where the last row starts
+    at = {"mid_row": (last + len(data)) // 2, "line_end": len(data) - 1, "header": data.index(b",", 20)}[cut]
+    path.write_bytes(data[:at])  # a kill while the row (or the header) was being written
+    where = "the header (line 1)" if cut == "header" else "row 2 (line 3)"
+    if cut != "header":
+        with pytest.warns(UserWarning, match=rf"{re.escape(str(path))}: row 2 \(line 3\) is cut short"):
+            assert [r["key"] for r in results.read_rows(path)] == [cases[0].key]
+    with pytest.warns(UserWarning, match=rf"{re.escape(str(path))}: {re.escape(where)} was cut short"):
+        again = sweep.run_sweep(cases, path, jobs=1, progress=False)
+    assert [r["key"] for r in again] == [c.key for c in (cases if cut == "header" else cases[-1:])]
+    rows = _complete_rows(path)
+    assert sorted(r["key"] for r in rows) == sorted(c.key for c in cases)  # each run once, every row whole
+    assert all(r["outcome"] == "stable" for r in rows)
+
+
+def test_a_garbled_row_is_left_out_with_a_warning_and_run_again(tmp_path):
+    path = tmp_path / "bench.csv"
+    cases = _tiny_cases(["springs", "xpbd"])
+    sweep.run_sweep(cases, path, jobs=1, progress=False)
+    header, first, second = path.read_bytes().split(b"\r\n")[:3]
+    path.write_bytes(b"\r\n".join([header, first[:len(first) // 2], second, b""]))  # whole lines, one short
+    with pytest.warns(UserWarning, match=r"row 1 \(line 2\) is cut short or garbled"):
+        assert results.done_keys(path) == {cases[1].key}
+    with pytest.warns(UserWarning, match="garbled"):
+        again = sweep.run_sweep(cases, path, jobs=1, progress=False)
+    assert [r["key"] for r in again] == [cases[0].key]
+    with pytest.warns(UserWarning, match="garbled"):
+        assert sorted(r["key"] for r in results.latest_rows(results.read_rows(path))) == sorted(c.key for c in cases)
+    # a reason with line breaks still makes one line: a garbled line never runs into the next
+    assert results.format_line({**results.empty_row(cases[0]), "reason": "two\nlines"}).count("\n") == 1
 
 
 @contextlib.contextmanager

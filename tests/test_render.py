@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable import catalog, io, render
+from mjcable import catalog, render
 from mjcable.errors import SimulationDivergedError
 from mjcable.render import grid, overlays
 
@@ -94,20 +94,6 @@ def test_failed_write_leaves_destination_and_no_temp_files(tmp_path):
         render.write_video(path, broken(), fps=10, shape=(16, 16))
     assert path.read_bytes() == b"old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["video.mp4"]
-
-
-def test_atomic_write_text(tmp_path):
-    path = tmp_path / "a.txt"
-    with io.atomic_write(path) as f:
-        f.write("hello")
-        assert not path.exists()  # nothing visible until complete
-    assert path.read_text() == "hello"
-    with pytest.raises(KeyError):
-        with io.atomic_write(path) as f:
-            f.write("half")
-            raise KeyError("interrupted")
-    assert path.read_text() == "hello"
-    assert not [p for p in tmp_path.iterdir() if p.name.startswith(io.TEMP_PREFIX)]
 
 
 def test_grid_tiles_and_labels():

@@ -1,8 +1,13 @@
+import logging
+import subprocess
+import sys
+
 import mujoco
 import numpy as np
 import pytest
 
 import mjcable
+from mjcable import _mujoco_log
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +66,41 @@ def test_unstable_springs_raise_instead_of_running_on(hang):
     with pytest.raises(mjcable.SimulationDivergedError, match="springs") as err:
         sim.step(2.0)
     assert 0.0 < err.value.time < 2.0
+
+
+@pytest.fixture
+def mjcable_warning_handler():
+    """mjcable's handler of MuJoCo's warnings, as ``import mjcable`` installs it (dm_control, once imported, puts
+    its own in its place; both keep MuJoCo's warnings in Python)."""
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(None)
+    _mujoco_log.route_warnings()
+    assert mujoco.get_mju_user_warning() is not None
+    yield
+    mujoco.set_mju_user_warning(previous)
+
+
+def test_mujocos_warnings_go_to_the_logger_not_to_a_file_in_the_working_folder(hang, tmp_path, monkeypatch, caplog,
+                                                                               mjcable_warning_handler):
+    monkeypatch.chdir(tmp_path)
+    sim = mjcable.Simulator(hang, "springs", substeps=20)
+    sim.mj_model.tendon_stiffness[:] *= 1e4  # ω h far beyond the explicit limit 2: MuJoCo's own check trips
+    with caplog.at_level(logging.WARNING, logger="mjcable"):
+        with pytest.raises(mjcable.SimulationDivergedError, match="mjWARN_BADQACC"):  # its counters still read
+            sim.step(0.5)
+    assert [r.getMessage() for r in caplog.records if r.name == "mjcable" and "QACC" in r.getMessage()]
+    assert list(tmp_path.iterdir()) == []  # no MUJOCO_LOG.TXT
+    mine = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(print)
+    _mujoco_log.route_warnings()  # a handler of the user's stays
+    assert mujoco.get_mju_user_warning() is print
+    mujoco.set_mju_user_warning(mine)
+
+
+def test_import_installs_the_warning_handler():
+    code = "import mjcable, mujoco; print(mujoco.get_mju_user_warning() is mjcable._mujoco_log._to_logger)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "True"
 
 
 def test_move_gripper_validates():

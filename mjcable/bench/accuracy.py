@@ -31,6 +31,7 @@ from mjcable.bench import case as case_mod
 from mjcable.bench import plots, results, scenarios, sweep
 from mjcable.bench.case import Case
 from mjcable.bench.outcome import OUTCOMES
+from mjcable.io import atomic_write
 
 __all__ = [
     "STIFFNESS_ITERATIONS",
@@ -322,7 +323,7 @@ def write_reports(rows: Sequence[dict], out: str, *, csv_path: str, wall: float 
                "the peg counts in neither.)\n",
                _convergence_markdown(conv, csv_path)]
     md += ["## Outcomes\n", plots.outcome_markdown(rows)]
-    with open(os.path.join(out, "pareto.md"), "w") as f:
+    with atomic_write(os.path.join(out, "pareto.md")) as f:
         f.write("\n".join(md))
 
 

@@ -1,19 +1,21 @@
 """Plots and tables of sweep results: work-precision plots, Pareto fronts, the stiffness-effect grid, stability maps.
 
-All functions take rows as :func:`mjcable.bench.results.read_rows` returns them and write PNG (matplotlib, Agg) or
-return Markdown.
+All functions take rows as :func:`mjcable.bench.results.read_rows` returns them and write PNG (matplotlib, Agg;
+atomically, :mod:`mjcable.io`) or return Markdown.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 from typing import Dict, Iterable, List, Optional, Sequence
 
 import numpy as np
 
 from mjcable.bench import case as case_mod
 from mjcable.bench.outcome import OUTCOMES
+from mjcable.io import atomic_write
 
 __all__ = [
     "pareto_front",
@@ -40,6 +42,16 @@ def _plt():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def _save(plt, fig, path) -> None:
+    """Write ``fig`` to ``path`` atomically (:func:`mjcable.io.atomic_write`; format from the suffix, PNG by
+    default) and close it."""
+    try:
+        with atomic_write(path, "wb") as f:
+            fig.savefig(f, format=os.path.splitext(str(path))[1][1:] or "png", dpi=_DPI)
+    finally:
+        plt.close(fig)
 
 
 def _finite(v) -> bool:
@@ -113,8 +125,7 @@ def work_precision(rows: Sequence[dict], scenario: str, path: str, *, title: Opt
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=_DPI)
-    plt.close(fig)
+    _save(plt, fig, path)
     return True
 
 
@@ -215,8 +226,7 @@ def stiffness_grid_png(results: Dict[str, Dict[tuple, np.ndarray]], path: str, *
     fig.suptitle(f"stiffness effects: the cable at t = {time:g} s (grey: start; dashed: rest length from the pin; "
                  "label: elongation)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=_DPI)
-    plt.close(fig)
+    _save(plt, fig, path)
 
 
 def stiffness_grid_markdown(rows: Sequence[dict], *, iterations: Sequence[int], dts: Sequence[float]) -> str:
@@ -274,8 +284,7 @@ def stability_map(rows: Sequence[dict], model: str, path: str) -> bool:
     fig.legend(handles, list(OUTCOME_COLORS), loc="lower center", ncol=len(OUTCOME_COLORS), fontsize=7)
     fig.suptitle(f"{model}: stability map", fontsize=10)
     fig.tight_layout(rect=(0, 0.08, 1, 0.95))
-    fig.savefig(path, dpi=_DPI)
-    plt.close(fig)
+    _save(plt, fig, path)
     return True
 
 

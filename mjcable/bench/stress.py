@@ -19,6 +19,7 @@ from mjcable.bench import case as case_mod
 from mjcable.bench import plots, results, sweep
 from mjcable.bench.case import Case
 from mjcable.bench.outcome import OUTCOMES
+from mjcable.io import atomic_write
 
 __all__ = ["FAMILIES", "QUICK_FAMILIES", "FAMILY_DTS", "stress_cases", "run_stress", "cli_stress"]
 
@@ -94,7 +95,7 @@ def run_stress(out: str, *, quick: bool = False, jobs: int = 1, scheduler=None,
           f"{wall:.0f} s wall time. Families: stiffness (E·A in N, drape), segments (n_segments, table drop), "
           "speed (gripper yank in m/s), load (end mass / cable mass, hanging cable).\n",
           plots.outcome_markdown(rows)]
-    with open(os.path.join(out, "stress.md"), "w") as f:
+    with atomic_write(os.path.join(out, "stress.md")) as f:
         f.write("\n".join(md))
     return rows
 

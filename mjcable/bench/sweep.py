@@ -22,7 +22,6 @@ Example::
 from __future__ import annotations
 
 import contextlib
-import csv
 import logging
 import os
 from typing import Callable, Iterable, List, Optional, Sequence
@@ -37,6 +36,7 @@ from mjcable.bench import case as case_mod
 from mjcable.bench import results
 from mjcable.bench.case import Case
 from mjcable.bench.runner import run_case, warm_up_models
+from mjcable.io import atomic_write
 
 __all__ = ["run_sweep", "default_jobs", "workers_of", "describe_workers", "ALLOWED_FAILURES"]
 
@@ -51,7 +51,9 @@ def run_sweep(cases: Iterable[Case], csv_path, *, jobs: int = 1, scheduler=None,
       cases: the runs.
       csv_path: the CSV to append to (created with a header when missing), by this process. Cases whose key
         already has a row with an outcome are skipped (resume: :func:`mjcable.bench.results.done_keys`). Each row
-        is written and flushed as its run finishes, so an interrupted sweep loses only the runs in progress.
+        is appended and synced to disk as its run finishes (final positions first, atomically), so a sweep killed
+        at any moment loses only the runs in progress; a last row it cut short is removed, with a warning, when
+        the sweep resumes (:func:`mjcable.bench.results.repair`).
       jobs: worker processes of the local Dask cluster started for the sweep (1: no cluster, the cases run in
         this process). Must stay 1 when ``scheduler`` is given.
       scheduler: an existing Dask cluster to run on instead: its scheduler's address (e.g.
@@ -75,6 +77,7 @@ def run_sweep(cases: Iterable[Case], csv_path, *, jobs: int = 1, scheduler=None,
         raise ValueError(f"scheduler must be None, an address or a distributed.Client, got {scheduler!r}")
     if scheduler is not None and jobs != 1:
         raise ValueError(f"jobs sizes the local cluster and must stay 1 with a scheduler, got jobs={jobs}")
+    results.repair(csv_path)  # a row an interrupted write cut short goes, so that new rows start on a line
     results.check_header(csv_path)
     done = results.done_keys(csv_path)
     seen = set()
@@ -84,24 +87,21 @@ def run_sweep(cases: Iterable[Case], csv_path, *, jobs: int = 1, scheduler=None,
             seen.add(c.key)
             todo.append(c)
     os.makedirs(os.path.dirname(os.path.abspath(csv_path)), exist_ok=True)
-    new_file = not os.path.exists(csv_path) or os.path.getsize(csv_path) == 0
     written = []
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=len(todo), desc=desc, unit="run", dynamic_ncols=True)
-    with open(csv_path, "a", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=results.COLUMNS)
-        if new_file:
-            writer.writeheader()
-            f.flush()
+    with open(csv_path, "a", newline="", encoding="utf-8") as f:
+        if f.tell() == 0:
+            _append(f, results.header_line())
 
         def record(row):
-            if "positions" in row:
-                np.save(results.positions_path(csv_path, row["key"]), np.asarray(row.pop("positions")))
-            writer.writerow(results.format_row(row))
-            f.flush()
+            if "positions" in row:  # before the row: a row never names positions that are not there
+                with atomic_write(results.positions_path(csv_path, row["key"]), "wb") as out:
+                    np.save(out, np.asarray(row.pop("positions")))
+            _append(f, results.format_line(row))
             written.append(row)
             if bar is not None:
                 bar.update(1)
@@ -116,6 +116,13 @@ def run_sweep(cases: Iterable[Case], csv_path, *, jobs: int = 1, scheduler=None,
     if bar is not None:
         bar.close()
     return written
+
+
+def _append(f, line: str) -> None:
+    """Append ``line`` to the open CSV ``f`` and put it on disk (flush and fsync) before the next run is recorded."""
+    f.write(line)
+    f.flush()
+    os.fsync(f.fileno())
 
 
 def default_jobs() -> int:

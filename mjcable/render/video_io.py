@@ -37,8 +37,9 @@ def _use_bundled_ffmpeg() -> None:
 def write_video(path, images: Iterable[np.ndarray], *, fps: int, shape: Tuple[int, int]) -> Path:
     """Write ``images`` to ``path`` as H.264 MP4, atomically, streaming (frames are not all held in memory).
 
-    A temporary file in the destination folder replaces ``path`` once every frame is written; if ``images`` raises,
-    ``path`` is left as it was and no temporary file remains.
+    A temporary file in the destination folder replaces ``path`` once every frame is written
+    (:func:`mjcable.io.atomic_path`); if ``images`` raises or the process is killed, ``path`` is left as it was and
+    no temporary file remains.
 
     Args:
       path: the ``.mp4`` file (its folder must exist).
@@ -57,8 +58,8 @@ def write_video(path, images: Iterable[np.ndarray], *, fps: int, shape: Tuple[in
         raise ValueError(f"shape must be (height, width) in pixels, got {shape!r}")
     height, width = check_size("height", shape[0]), check_size("width", shape[1])
     _use_bundled_ffmpeg()
-    with atomic_path(path) as tmp:
-        with mediapy.VideoWriter(tmp, (height, width), fps=fps) as writer:
+    with atomic_path(path) as tmp:  # tmp may have no suffix (mjcable.io): the format is named
+        with mediapy.VideoWriter(tmp, (height, width), fps=fps, ffmpeg_args=["-f", "mp4"]) as writer:
             for image in images:
                 writer.add_image(image)
     return path
