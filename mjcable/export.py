@@ -37,6 +37,7 @@ import numpy as np
 
 from mjcable import _dm_control, _validate, scenes
 from mjcable.catalog import build, names as model_names
+from mjcable.mjcf import data
 from mjcable.mjcf.world import START_KEY
 from mjcable.io import atomic_write
 
@@ -135,7 +136,7 @@ def check_file(path: PathLike, *, seconds: float = CHECK_SECONDS) -> None:
     poses = ["default"] + ([START_KEY] if key >= 0 else [])
     n_steps = int(math.ceil(seconds / mj_model.opt.timestep))
     for pose in poses:
-        mj_data = mujoco.MjData(mj_model)
+        mj_data = data.new_data(mj_model)
         if pose == START_KEY:
             mujoco.mj_resetDataKeyframe(mj_model, mj_data, key)
         for step in range(n_steps):

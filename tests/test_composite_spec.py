@@ -17,7 +17,7 @@ import mjcable
 from mjcable import catalog
 from mjcable.backends.native import spec_builder
 from mjcable.bench import scenarios
-from mjcable.mjcf import composite, joints, snap, world
+from mjcable.mjcf import composite, data, joints, snap, world
 from mjcable.scene import CableSpec, Pin, Scene
 
 pytestmark = pytest.mark.composite  # the cable plugin: MuJoCo 3.x only
@@ -265,7 +265,7 @@ def test_add_cable_into_a_user_spec(scene):
                                       scene.cable.particles[scene.pin_particle(k)])
 
     # The key puts the cable at its start: the particle sites where the scene starts them.
-    d = mujoco.MjData(m)
+    d = data.new_data(m)  # (MuJoCo's own MjData may hand the cable plugin a NaN: mjcable.mjcf.data)
     mujoco.mj_resetDataKeyframe(m, d, 0)
     mujoco.mj_forward(m, d)
     sites = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i))
@@ -300,3 +300,18 @@ def test_add_cable_into_a_user_spec_with_a_cable_plugin_instance():
     assert m.nplugin == 2
     assert _names(m, mujoco.mjtObj.mjOBJ_PLUGIN, 2) == ["theirs", composite.INSTANCE]
     assert np.count_nonzero(m.body_plugin == 1) == scene.cable.n_segments
+
+
+def test_new_data_hands_the_cable_plugin_zeroed_memory_whatever_the_heap_held():
+    """MuJoCo's cable plugin measures the chain's segments inside mj_makeData, from mocap positions MuJoCo has not
+    yet initialised: after NaN-filled arrays were freed, half of plain MjData's elastic forces were NaN."""
+    m = mjcable.build(scenarios.yank_scene(12, young=1e6), "composite").compile()  # a gripper roots the chain
+    reference = data.new_data(m)
+    mujoco.mj_forward(m, reference)
+    assert np.all(np.isfinite(reference.qfrc_passive))
+    for _ in range(10):
+        garbage = [np.full(size // 8, np.nan) for size in (200_000, 100_000, 50_000, 20_000, 8_000, 4_000)]
+        del garbage  # freed memory full of NaNs, which the next allocation may reuse
+        d = data.new_data(m)
+        mujoco.mj_forward(m, d)
+        np.testing.assert_array_equal(d.qfrc_passive, reference.qfrc_passive)

@@ -26,7 +26,7 @@ import numpy as np
 from mjcable import monitor
 from mjcable.backends.native_energy import CableEnergy
 from mjcable.backends.protocol import Energy, RunResult
-from mjcable.mjcf import world
+from mjcable.mjcf import data, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
@@ -89,7 +89,7 @@ class NativeBackend:
                              "body's mass and inertia above 1e-15 (mjMINVAL)"
                              if "mass and inertia" in error else f"{self.name}: MuJoCo cannot compile this "
                              f"scene: {error}") from None
-        self.mj_data = mujoco.MjData(self.mj_model)
+        self.mj_data = data.new_data(self.mj_model)  # (the cable plugin reads it before MuJoCo initialises it)
         m = self.mj_model
         n = scene.cable.n_particles
         self._sites = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i)) for i in range(n)])
