@@ -7,7 +7,8 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
 :mod:`mjcable.solvers.cosserat_kernels`. With l₀ the rest segment length:
 
 * stretch–shear of each segment: α = (1/(G·A l₀), 1/(G·A l₀), 1/(E·A l₀)), the stretch row 0 for an inextensible
-  cable (``stretch_stiffness=None``);
+  cable (``stretch_stiffness=None``), the shear rows 0 for a cable without G (E = 0: its frames follow the tangent,
+  or the segment could grow across its frame's axis);
 * bend–twist between neighbouring segments: α = (1/(E·I l₀), 1/(E·I l₀), 1/(G·J l₀)); a rod without bending
   stiffness (E = 0) has none of these rows' stiffness (α = ∞ is taken as a free joint: the rows are left at a
   compliance of 1/(ε l₀) with ε = ``_LIMP`` N·m²);
@@ -37,7 +38,7 @@ def compliances(scene: Scene) -> tuple:
     cable = scene.cable
     l0 = cable.segment_length
     ga = cable.shear * cable.area
-    shear = 1.0 / (ga * l0) if ga > 0.0 else 1.0 / (_LIMP * l0)
+    shear = 1.0 / (ga * l0) if ga > 0.0 else 0.0  # a rope without E: frames held to the tangent (Kirchhoff)
     stretch = 0.0 if cable.stretch_stiffness is None else 1.0 / (cable.stretch_stiffness * l0)
     bend = 1.0 / (max(cable.bending_stiffness, _LIMP) * l0)
     twist = 1.0 / (max(cable.torsion_stiffness, _LIMP) * l0)
