@@ -46,7 +46,7 @@ from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.direct_kernels import banded_ldlt_solve
 from mjcable.solvers.kernels_layout import ORDER_DIRECT
 
-__all__ = ["frames_begin", "frames_end", "rod_iterate", "rod_gauss_seidel", "rod_direct", "rod_energy"]
+__all__ = ["frames_begin", "frames_end", "rod_iterate", "rod_gauss_seidel", "rod_direct"]
 
 # Relative compliance added to the diagonal of every row of the direct solve (an inextensible rod's α = 0 rows):
 # far below any physical compliance, it keeps J W Jᵀ positive definite where a held end makes rows redundant.
@@ -571,27 +571,3 @@ def frames_end(S):
         if rw < 0.0:
             rx, ry, rz = -rx, -ry, -rz
         om[i, 0], om[i, 1], om[i, 2] = k * rx, k * ry, k * rz
-
-
-@_jit
-def rod_energy(S):
-    """(stretch–shear, bend–twist) elastic energy in J of the rod's current state, ½ Σ Cₖ² / αₖ over the compliant
-    rows (the energies of the module docstring; rigid rows, α = 0, hold none)."""
-    P = S.par[0]
-    inv_l0 = math.sqrt(P.inv_l0sq)
-    n = S.q.shape[0]
-    e_ss = 0.0
-    e_bt = 0.0
-    a_ss = (P.ss_alpha1, P.ss_alpha2, P.ss_alpha3)
-    a_bt = (P.bt_alpha1, P.bt_alpha2, P.bt_alpha3)
-    for i in range(n):
-        c = _linearise_ss(S, i, inv_l0)
-        for k in range(3):
-            if a_ss[k] > 0.0:
-                e_ss += 0.5 * c[k] * c[k] / a_ss[k]
-        if i < n - 1:
-            c = _linearise_bt(S, i, inv_l0)
-            for k in range(3):
-                if a_bt[k] > 0.0:
-                    e_bt += 0.5 * c[k] * c[k] / a_bt[k]
-    return e_ss, e_bt
