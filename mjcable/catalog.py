@@ -26,6 +26,7 @@ call::
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Any, Callable, Dict, Optional
 
 import mujoco
@@ -35,12 +36,12 @@ from mjcable.backends.native import NativeBackend, spec_builder
 from mjcable.backends.particle import ParticleBackend, proxy_builder
 from mjcable.mjcf import composite, flexrod, joints, springs
 from mjcable.mjcf.settings import CompositeSettings, FlexrodSettings, JointsSettings, SpringsSettings
-from mjcable.scene import CableSpec, Scene
-from mjcable.solvers import jakobsen, pbd, xpbd
-from mjcable.solvers.settings import JakobsenSettings, PBDSettings, XPBDSettings
+from mjcable.scene import REST_SHAPES, CableSpec, Scene
+from mjcable.solvers import cosserat, jakobsen, pbd, xpbd
+from mjcable.solvers.settings import CosseratSettings, JakobsenSettings, PBDSettings, XPBDSettings
 
 __all__ = ["ModelEntry", "FAMILIES", "register", "unregister", "get", "names", "unavailable", "check_model",
-           "make_settings", "build", "check_dt", "check_substep", "honouring", "MIN_DT"]
+           "make_settings", "build", "check_scene", "check_dt", "check_substep", "honouring", "MIN_DT"]
 
 FAMILIES = ("native", "particle")
 
@@ -61,6 +62,9 @@ class ModelEntry:
         pairs (a mapping is taken too); a Simulator warns when a scene sets one (:mod:`mjcable.prechecks`).
       check: ``(scene, settings, dt) -> None`` or ``None``: the model's own stability rules, checked when a Simulator
         is made (warning with :class:`~mjcable.errors.PhysicsWarning`, or raising ``ValueError``).
+      twist: the model has a torsional stiffness of its own (G·J, from ``CableSpec.shear_modulus``).
+      rest_shapes: the ``CableSpec.rest_shape`` values it honours.
+      frames: it has material frames (:attr:`mjcable.Simulator.frames`, a gripper's ``orientation``).
     """
 
     name: str
@@ -72,6 +76,9 @@ class ModelEntry:
     summary: str = ""
     ignores: tuple = ()
     check: Optional[Callable] = None
+    twist: bool = False
+    rest_shapes: tuple = ("straight",)
+    frames: bool = False
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
@@ -95,6 +102,8 @@ class ModelEntry:
         object.__setattr__(self, "ignores", ignores)  # a tuple: entries pickle and hash
         if self.check is not None and not callable(self.check):
             raise ValueError(f"check must be callable or None, got {self.check!r}")
+        for shape in self.rest_shapes:
+            _validate.choice("rest_shapes", shape, REST_SHAPES)
 
 
 _REGISTRY: Dict[str, ModelEntry] = {}
@@ -193,6 +202,25 @@ def check_substep(dt: float, settings) -> None:
                          f"{substeps} at dt={dt:g} s (at most {most} substeps at that dt)")
 
 
+def check_scene(scene: Scene, model: str) -> None:
+    """What model ``model`` can't honour of ``scene``'s cable: a ``rest_shape`` it has no means for is a
+    ``ValueError``; a ``shear_modulus`` given to a model without a twist stiffness of its own a warning.
+
+    Raises:
+      ValueError: naming ``rest_shape``, its value, the values the model takes and the models that take it.
+    """
+    entry = get(model)
+    cable = scene.cable
+    if cable.rest_shape not in entry.rest_shapes:
+        takers = tuple(n for n, e in _REGISTRY.items() if cable.rest_shape in e.rest_shapes)
+        raise ValueError(f"rest_shape must be one of {entry.rest_shapes} for model {model!r}, got "
+                         f"{cable.rest_shape!r} (models with that rest shape: {takers})")
+    if cable.shear_modulus is not None and not entry.twist:
+        warnings.warn(f"model {model!r} has no torsional stiffness of its own: CableSpec.shear_modulus = "
+                      f"{cable.shear_modulus:g} Pa is not used (models with twist: "
+                      f"{tuple(n for n, e in _REGISTRY.items() if e.twist)})", stacklevel=3)
+
+
 def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.MjSpec:
     """The MuJoCo spec of ``scene`` for ``model``.
 
@@ -217,6 +245,7 @@ def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.
     dt = check_dt(dt)
     made = make_settings(model, **settings)
     check_substep(dt, made)
+    check_scene(scene, model)
     return entry.build(scene, made, dt)
 
 
@@ -230,7 +259,8 @@ for _module, _settings, _summary, _missing in (
         continue
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="native", settings=_settings,
                         build=spec_builder(_module.build), backend=NativeBackend, summary=_summary,
-                        ignores=getattr(_module, "IGNORES", {}), check=getattr(_module, "precheck", None)))
+                        ignores=getattr(_module, "IGNORES", {}), check=getattr(_module, "precheck", None),
+                        twist=_module is composite))
 for _module, _settings, _summary in (
         (jakobsen, JakobsenSettings, "Jakobsen's Verlet relaxation"),
         (pbd, PBDSettings, "Position Based Dynamics"),
@@ -238,3 +268,7 @@ for _module, _settings, _summary in (
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="particle", settings=_settings,
                         build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary,
                         ignores=getattr(_module, "IGNORES", {})))
+register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
+                    backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
+                    ignores=getattr(cosserat, "IGNORES", {}),
+                    summary="XPBD Cosserat rod: material frames, twist, curved rest shapes, direct solve"))

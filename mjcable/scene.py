@@ -23,6 +23,8 @@ from mjcable import _validate, geometry, spline
 
 __all__ = [
     "GRAVITY",
+    "POISSON",
+    "REST_SHAPES",
     "CableSpec",
     "Pin",
     "PIN_KINDS",
@@ -40,6 +42,8 @@ __all__ = [
 ]
 
 GRAVITY = np.array([0.0, 0.0, -9.81])  # m/s²
+POISSON = 0.5  # Poisson's ratio ν of a cable whose shear_modulus is not given (an incompressible, rubber-like jacket)
+REST_SHAPES = ("straight", "start")
 PIN_KINDS = ("world", "gripper", "socket", "body")
 BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
 # particles either side of a body pin that never touch the pin's body: the cable's end starts touching (or inside)
@@ -81,6 +85,11 @@ class CableSpec:
       friction: Coulomb coefficient μ of the cable's contacts (>= 0), used for cable-obstacle contacts unless the
         obstacle sets its own.
       kind: Catmull-Rom kind, ``"centripetal"`` (default) or ``"uniform"`` (the thesis's form).
+      shear_modulus: G in Pa (> 0) for twist (G·J, J = π r⁴ / 2) and shear (G·A); ``None``: E / (2 (1 + ν)) with
+        ν = :data:`POISSON` = 0.5. Models without twist warn when it is given.
+      rest_shape: ``"straight"`` (default: the unstressed cable is straight) or ``"start"`` (the start curve, with
+        its twist-free frames, is the unstressed shape: a permanently bent cable); only models with a curved rest
+        shape (``cosserat``) take ``"start"``, the others raise a ``ValueError``.
 
     Raises:
       ValueError: a parameter outside its range, or a curve that cannot be resampled into ``n_segments`` equal
@@ -96,9 +105,14 @@ class CableSpec:
     damping: float = dataclasses.field(default=0.0, kw_only=True)
     friction: float = dataclasses.field(default=1.0, kw_only=True)
     kind: str = dataclasses.field(default="centripetal", kw_only=True)
+    shear_modulus: Optional[float] = dataclasses.field(default=None, kw_only=True)
+    rest_shape: str = dataclasses.field(default="straight", kw_only=True)
 
     def __post_init__(self):
         curve = spline.CatmullRom(self.points, kind=self.kind)  # validates points and kind
+        _set(self, "shear_modulus", _validate.optional_number("shear_modulus", self.shear_modulus, low=0.0,
+                                                               low_open=True, unit="Pa"))
+        _validate.choice("rest_shape", self.rest_shape, REST_SHAPES)
         _set(self, "points", tuple(tuple(float(x) for x in p) for p in curve.points))
         _set(self, "n_segments", _validate.integer("n_segments", self.n_segments, low=1))
         if self.n_segments > MAX_SEGMENTS:
@@ -166,6 +180,21 @@ class CableSpec:
     def bending_stiffness(self) -> float:
         """E·I in N·m²."""
         return self.young * self.second_moment
+
+    @property
+    def polar_moment(self) -> float:
+        """Polar second moment of area J = π r⁴ / 2 in m⁴."""
+        return math.pi * self.radius**4 / 2.0
+
+    @property
+    def shear(self) -> float:
+        """The shear modulus G in Pa: ``shear_modulus``, or E / (2 (1 + ν)) with ν = :data:`POISSON`."""
+        return self.shear_modulus if self.shear_modulus is not None else self.young / (2.0 * (1.0 + POISSON))
+
+    @property
+    def torsion_stiffness(self) -> float:
+        """G·J in N·m²."""
+        return self.shear * self.polar_moment
 
     @property
     def linear_density(self) -> float:

@@ -103,6 +103,7 @@ class Simulator:
         self.dt = catalog.check_dt(dt)
         self.settings = catalog.make_settings(model, **settings)
         catalog.check_substep(self.dt, self.settings)
+        catalog.check_scene(scene, model)
         far = float(np.max(np.abs(scene.cable.particles)))
         if far > MAX_DISTANCE:
             raise ValueError(f"scene: the cable starts {far:.6g} m from the origin, beyond the {MAX_DISTANCE:g} m past "
@@ -178,6 +179,15 @@ class Simulator:
         """``(len(scene.pins), 3)`` torque in N·m each pin exerts on the cable about its pinned particle (non-zero for
         clamps only)."""
         return self._backend.pin_torques()
+
+    @property
+    def frames(self) -> np.ndarray:
+        """``(n_segments, 4)`` the segments' material frames, unit quaternions (w, x, y, z) rotating each segment's
+        body axes (d₁, d₂, d₃; d₃ along the segment) into the world, for models that have them (``cosserat``).
+
+        Raises:
+          ValueError: the model has no material frames (its message names the model)."""
+        return self._backend.frames()
 
     @property
     def gripper_positions(self) -> np.ndarray:
@@ -409,9 +419,13 @@ class Simulator:
 
     # -- actions --------------------------------------------------------------------------------------------------
 
-    def move_gripper(self, pin_number: int, position) -> None:
+    def move_gripper(self, pin_number: int, position, orientation=None) -> None:
         """Move the gripper of ``scene.pins[pin_number]`` to ``position`` (3,), metres, world frame; it travels
-        there linearly over the next step's substeps."""
+        there linearly over the next step's substeps.
+
+        ``orientation``: a unit quaternion (4,) (w, x, y, z), the gripper's turn from its start orientation; a
+        clamped gripper of a model with frames (``cosserat``) turns the frame it holds with it (slerped over the
+        step's substeps), twisting or bending the cable. Other models raise a ``ValueError`` when it is given."""
         grippers = self._grippers
         if isinstance(pin_number, bool) or pin_number not in grippers:
             raise ValueError(f"pin_number must index a gripper pin, one of {grippers}, got {pin_number!r}")
@@ -421,7 +435,17 @@ class Simulator:
             pos = None
         if pos is None or pos.shape != (3,) or not np.isfinite(pos).all():
             raise ValueError(f"position must be 3 finite numbers in metres, got {position!r}")
-        self._backend.move_gripper(int(pin_number), pos)
+        if orientation is None:
+            self._backend.move_gripper(int(pin_number), pos)
+            return
+        try:
+            quat = np.array(orientation, dtype=np.float64)
+        except (TypeError, ValueError):
+            quat = None
+        if quat is None or quat.shape != (4,) or not np.isfinite(quat).all() or abs(np.linalg.norm(quat) - 1) > 1e-6:
+            raise ValueError(f"orientation must be a unit quaternion (w, x, y, z) of 4 finite numbers with norm 1 "
+                             f"(within 1e-6), got {orientation!r}")
+        self._backend.move_gripper(int(pin_number), pos, quat / np.linalg.norm(quat))
 
     def add_point_mass(self, index: int, mass: float) -> None:
         """Add a point mass of ``mass`` kg at particle ``index`` (negative counts from the end), e.g. a load on the

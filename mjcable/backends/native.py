@@ -335,7 +335,14 @@ class NativeBackend:
     def gripper_positions(self) -> np.ndarray:
         return self.mj_data.mocap_pos[self._gripper_mocap].copy()
 
-    def move_gripper(self, k: int, position: np.ndarray) -> None:
+    def frames(self) -> np.ndarray:
+        raise ValueError(f"frames: model {self.name!r} reports no material frames (models with frames: cosserat; "
+                         "the body frames of joints and composite are not reported yet)")
+
+    def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
+        if orientation is not None:
+            raise ValueError(f"orientation: model {self.name!r} can't turn a gripper (its pins hold positions); "
+                             "models with frames: cosserat")
         i = self._mocap_of_pin[k]
         self._gripper_from.setdefault(i, self.mj_data.mocap_pos[i].copy())
         self.mj_data.mocap_pos[i] = position

@@ -29,9 +29,9 @@ from mjcable.mjcf import proxy, world
 from mjcable.scene import Scene
 from mjcable.solvers import capi, kernels, kernels_layout as layout, query_kernels
 from mjcable.solvers.contacts import ObstacleContacts
-from mjcable.solvers.energy import elastic_energy
+from mjcable.solvers.energy import elastic_energy, rod_energy
 from mjcable.solvers.settings import ParticleSettings
-from mjcable.solvers.state import StateArrays, chain_arrays
+from mjcable.solvers.state import StateArrays, chain_arrays, quat_mul
 from mjcable.solvers.user_constraints import iteration_factor
 
 __all__ = ["ParticleBackend", "proxy_builder"]
@@ -39,7 +39,8 @@ __all__ = ["ParticleBackend", "proxy_builder"]
 _RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "count", "prev", "par", "rest", "lam_s", "rest_d", "lam_d",
           "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c", "pin_p", "pin_from", "pin_to", "pin_active",
           "pin_release", "pin_force", "pin_sum", "pin_count", "band", "grad", "rhs", "fric_n", "fric_mu",
-          "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob")
+          "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob", "q", "q0",
+          "omega", "lam_ss", "lam_bt", "lam_end", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react")
 _NO_PATH = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
 
 
@@ -311,18 +312,43 @@ class ParticleBackend:
         a = self.arrays
         par = self._par
         g = np.array([par["gx"], par["gy"], par["gz"]], dtype=np.float64)
-        stretch, bending = elastic_energy(a)
-        return Energy(kinetic=0.5 * float(np.sum(a.mass * np.einsum("ij,ij->i", a.v, a.v))),
-                      gravity=-float(np.sum(a.mass * (a.x @ g))), stretch=stretch, bending=bending)
+        twist = 0.0
+        if len(a.q):  # a rod with frames: its rows' potential (and its segments' rotational kinetic energy)
+            stretch, bending, twist = rod_energy(a)
+            spin = 0.5 * float(np.sum(a.inertia * a.omega * a.omega))
+        else:
+            (stretch, bending), spin = elastic_energy(a), 0.0
+        return Energy(kinetic=0.5 * float(np.sum(a.mass * np.einsum("ij,ij->i", a.v, a.v))) + spin,
+                      gravity=-float(np.sum(a.mass * (a.x @ g))), stretch=stretch, bending=bending, twist=twist)
 
     def gripper_positions(self) -> np.ndarray:
         return self.mj_data.mocap_pos[self._gripper_mocap].copy()
 
-    def move_gripper(self, k: int, position: np.ndarray) -> None:
+    def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
         """Move the gripper of ``scene.pins[k]`` to ``position`` (3,) m: its particle reaches it linearly over the
-        next step's substeps."""
-        self.arrays.pin_to[k] = position
+        next step's substeps; with ``orientation`` (4,) (w, x, y, z), a clamped gripper of a rod with frames turns
+        the frame it holds to ``orientation ⊗ q_start`` (q_start the frame at the start, the gripper's start
+        orientation the identity), slerped over the substeps."""
+        a = self.arrays
+        if orientation is not None:
+            rows = np.flatnonzero(a.clamp_pin == k) if a.q.shape[0] else ()
+            if not len(rows):
+                raise ValueError(f"orientation: model {self.name!r} can't turn the gripper of pins[{k}]"
+                                 + (" (not clamped: pass clamp=True to its Pin)" if a.q.shape[0] else
+                                    " (its cable has no material frames; models with frames: cosserat)"))
+            row = int(rows[0])
+            start = self._start["q"][a.clamp_seg[row]]
+            a.clamp_qto[row] = quat_mul(orientation, start)
+            self.mj_data.mocap_quat[self._mocap_of_pin[k]] = orientation
+        a.pin_to[k] = position
         self.mj_data.mocap_pos[self._mocap_of_pin[k]] = position
+
+    def frames(self) -> np.ndarray:
+        """``(n_segments, 4)`` the segments' material frames (w, x, y, z), body to world: d₃ along the segment."""
+        if not self.arrays.q.shape[0]:
+            raise ValueError(f"frames: model {self.name!r} has no material frames (its particles carry positions "
+                             "only); models with frames: cosserat")
+        return self.arrays.q.copy()
 
     def add_point_mass(self, index: int, mass: float) -> None:
         """Add ``mass`` kg to particle ``index``'s lumped mass (in the start state too, so :meth:`reset` keeps it);
@@ -347,9 +373,16 @@ class ParticleBackend:
 
     def pin_torques(self) -> np.ndarray:
         """A clamp's torque about its particle p: (x_q − x_p) × f_q, f_q = Σₘ ∇_q Cₘ λₘ / h² the clamp's force on
-        the neighbour q (:func:`mjcable.solvers.kernels.clamp_sweep`: ∇_q Cₘ = (2 / l₀²) dₘ)."""
+        the neighbour q (:func:`mjcable.solvers.kernels.clamp_sweep`: ∇_q Cₘ = (2 / l₀²) dₘ); for a rod with frames,
+        the torque that holds its frame, −Σ R ∇_b Cᵀ λ / h² (:mod:`mjcable.solvers.cosserat_kernels`), axial torque
+        included."""
         a = self.arrays
         out = np.zeros((len(self.scene.pins), 3))
+        if a.q.shape[0]:
+            for row, k in enumerate(a.clamp_pin):
+                if a.pin_active[k]:
+                    out[k] = -a.clamp_react[row] / self.h**2
+            return out
         scale = 2.0 / self.scene.cable.segment_length**2
         for kc, (p, q) in enumerate(a.clamp_pq):
             k = int(a.clamp_pin[kc])

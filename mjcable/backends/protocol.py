@@ -120,8 +120,13 @@ class Backend(Protocol):
     def gripper_positions(self) -> np.ndarray:
         """``(n_grippers, 3)`` commanded gripper positions in metres, in ``scene.grippers`` order."""
 
-    def move_gripper(self, k: int, position: np.ndarray) -> None:
-        """Send the gripper of ``scene.pins[k]`` to ``position`` (3,) over the next step."""
+    def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
+        """Send the gripper of ``scene.pins[k]`` to ``position`` (3,) over the next step, and (a model with frames,
+        a clamped gripper) turn it to the unit quaternion ``orientation`` (4,) (w, x, y, z); ``orientation`` given
+        to a model that can't honour it raises a ``ValueError``."""
+
+    def frames(self) -> np.ndarray:
+        """``(n_segments, 4)`` material frames (w, x, y, z) of the segments; a ``ValueError`` for models without."""
 
     def add_point_mass(self, index: int, mass: float) -> None:
         """Add ``mass`` kg at particle ``index`` (validated by the Simulator)."""

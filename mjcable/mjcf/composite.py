@@ -30,8 +30,8 @@ Mapping from the physical cable:
 * mass: each of the n segment bodies weighs m/n (the composite's ``<geom mass=...>``);
 * length: the segments are the equal chords l₀ of the start particles; the chain is inextensible (E·A,
   ``stretch_stiffness``, is not modelled);
-* bending and twist: the cable plugin (only when E > 0) with ``bend`` = E and ``twist`` = G = E / (2 (1 + ν)),
-  ν = ``POISSON`` = 0.5 (an incompressible, rubber-like jacket). The plugin computes I = π r⁴ / 4 and J = π r⁴ / 2
+* bending and twist: the cable plugin (only when E > 0) with ``bend`` = E and ``twist`` = G, the cable's
+  ``shear_modulus`` or E / (2 (1 + ν)) with ν = ``POISSON`` = 0.5 (an incompressible, rubber-like jacket). The plugin computes I = π r⁴ / 4 and J = π r⁴ / 2
   from the capsule radius (the same I as ``CableSpec.second_moment``) and applies torques (E·I/l₀)·θ per joint,
   l₀ the distance between body origins: the same discrete rod as ``joints``, with the rod's own torsional
   stiffness G·J / l₀ = E·I / ((1 + ν) l₀). Its reference shape is straight: with the plugin's ``flat`` = true the
@@ -61,6 +61,7 @@ import mujoco
 import numpy as np
 
 from mjcable.mjcf import joints, snap, world
+from mjcable import scene as scene_module
 from mjcable.scene import Scene
 
 __all__ = ["build", "add_cable", "missing_plugin", "body_name", "joint_name", "plugin_moduli", "POISSON", "PREFIX",
@@ -68,7 +69,7 @@ __all__ = ["build", "add_cable", "missing_plugin", "body_name", "joint_name", "p
 
 #: the cable's properties this model does not use (:attr:`mjcable.catalog.ModelEntry.ignores`)
 IGNORES = joints.IGNORES  # the same rigid segments
-POISSON = 0.5  # Poisson's ratio ν of the cable, for the plugin's shear modulus G = E / (2 (1 + ν))
+POISSON = scene_module.POISSON  # Poisson's ratio ν of a cable without shear_modulus: G = E / (2 (1 + ν))
 PREFIX = "cable"
 PLUGIN = "mujoco.elasticity.cable"
 INSTANCE = f"composite{PREFIX}"  # the plugin instance's name, as <composite> names it
@@ -110,9 +111,8 @@ def joint_name(i: int, n_segments: int) -> str:
 
 
 def plugin_moduli(scene: Scene) -> tuple:
-    """``(bend, twist)`` of the cable plugin in Pa: E and G = E / (2 (1 + ν))."""
-    young = scene.cable.young
-    return young, young / (2.0 * (1.0 + POISSON))
+    """``(bend, twist)`` of the cable plugin in Pa: E and G (the cable's ``shear_modulus``, or E / (2 (1 + ν)))."""
+    return scene.cable.young, scene.cable.shear
 
 
 def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:

@@ -35,16 +35,17 @@ the packed solver state and its parameter record; their numba cache is stamped w
 :mod:`~mjcable.solvers.query_kernels` (contact queries and proxy poses, from Python and from the step loop),
 :mod:`~mjcable.solvers.capi` (MuJoCo's C API for the step loop: entry points and checked struct layout),
 :mod:`~mjcable.solvers.contacts` (``mj_collision`` queries), :mod:`~mjcable.solvers.jakobsen`,
-:mod:`~mjcable.solvers.pbd`, :mod:`~mjcable.solvers.xpbd` (each model's rules: how the physical cable becomes
-compliances and factors), :mod:`~mjcable.solvers.user_constraints` (PBD's user constraints),
+:mod:`~mjcable.solvers.pbd`, :mod:`~mjcable.solvers.xpbd`, :mod:`~mjcable.solvers.cosserat` (each model's rules: how
+the physical cable becomes compliances and factors; the Cosserat rod's kernels in
+:mod:`~mjcable.solvers.cosserat_kernels`), :mod:`~mjcable.solvers.user_constraints` (PBD's user constraints),
 :mod:`~mjcable.solvers.energy` (the elastic energy of each model's constraint rows).
 """
 
-from mjcable.solvers import (capi, contact_kernels, energy, jakobsen, kernels, pbd, query_kernels, settings,
+from mjcable.solvers import (capi, contact_kernels, cosserat, energy, jakobsen, kernels, pbd, query_kernels, settings,
                              state, user_constraints, xpbd)
-from mjcable.solvers.settings import JakobsenSettings, ParticleSettings, PBDSettings, XPBDSettings
+from mjcable.solvers.settings import CosseratSettings, JakobsenSettings, ParticleSettings, PBDSettings, XPBDSettings
 from mjcable.solvers.user_constraints import UserConstraint
 
-__all__ = ["ParticleSettings", "JakobsenSettings", "PBDSettings", "XPBDSettings", "UserConstraint", "jakobsen",
-           "pbd", "xpbd", "kernels", "contact_kernels", "query_kernels", "capi", "settings", "state",
-           "user_constraints", "energy"]
+__all__ = ["ParticleSettings", "JakobsenSettings", "PBDSettings", "XPBDSettings", "CosseratSettings",
+           "UserConstraint", "jakobsen", "pbd", "xpbd", "cosserat", "kernels", "contact_kernels", "query_kernels",
+           "capi", "settings", "state", "user_constraints", "energy"]

@@ -20,6 +20,12 @@ Rows: stretch C = |xᵢ₊₁ − xᵢ| − l (W = wᵢ + wᵢ₊₁); curvature
 (W = (wᵢ₋₁ + 4wᵢ + wᵢ₊₁) / l₀⁴); distance bending C = |xᵢ₊₂ − xᵢ| − 2 l₀ (W = wᵢ + wᵢ₊₂); an active clamp's two
 rows C = (2 / l₀²) d·(x_q − x_p) (W = 4 (w_p + w_q) / l₀⁴), counted as bending. Contacts, pins and PBD's user
 constraints are hard and store none.
+
+The Cosserat rod (``cosserat``, :func:`rod_energy`) stores ½ Cᵀ α⁻¹ C of its rows ([KS16] in XPBD form,
+:mod:`mjcable.solvers.cosserat_kernels`): stretch–shear C = Rᵢᵀ (xᵢ₊₁ − xᵢ) / l₀ − e₃ with α = (1/(G·A·l₀),
+1/(G·A·l₀), 1/(E·A·l₀)) (the stretch part; 0 for an inextensible rod: hard), bend–twist C = (2 / l₀) Im(q̄ᵢ ⊗ qᵢ₊₁) −
+Ω₀ with α = (1/(E·I·l₀), 1/(E·I·l₀), 1/(G·J·l₀)) (bending, bending, twist), and a clamp's half-segment constraint
+C = (4 / l₀) Im(q̄ q′) with twice those compliances.
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ import numpy as np
 
 from mjcable.solvers import kernels_layout as layout
 
-__all__ = ["elastic_energy", "row_compliance"]
+__all__ = ["elastic_energy", "rod_energy", "row_compliance"]
 
 
 def row_compliance(alpha: float, k_iteration: float, iterations: int, h: float, wsum: np.ndarray) -> np.ndarray:
@@ -74,3 +80,47 @@ def elastic_energy(a) -> tuple:
         bending += _potential(np.sum(c * c, axis=1),
                               row_compliance(float(P["alpha_c"]), float(P["k_c"]), n_it, h, wsum))
     return stretch, bending
+
+
+def _rotate_back(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rᵀ v for unit quaternions ``q`` (n, 4) (w, x, y, z) and vectors ``v`` (n, 3): v in the frames."""
+    w, u = q[:, :1], -q[:, 1:]  # the conjugate's rotation
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Im(r) of r = ā ⊗ b with r_w ≥ 0, for quaternions (n, 4)."""
+    aw, av, bw, bv = a[:, :1], -a[:, 1:], b[:, :1], b[:, 1:]
+    rw = aw * bw - np.sum(av * bv, axis=1, keepdims=True)
+    rv = aw * bv + bw * av + np.cross(av, bv)
+    return np.where(rw < 0.0, -rv, rv)
+
+
+def _quadratic(c: np.ndarray, alpha) -> np.ndarray:
+    """½ Σ c_k² / α_k per column k (3,) of ``c`` (n, 3); a hard (α = 0) column stores none."""
+    out = np.zeros(3)
+    for k in range(3):
+        if alpha[k] > 0.0 and np.isfinite(alpha[k]):
+            out[k] = 0.5 * float(np.sum(c[:, k] ** 2)) / alpha[k]
+    return out
+
+
+def rod_energy(a) -> tuple:
+    """``(stretch, bending, twist)`` in joules of a Cosserat rod's state ``a`` (module docstring; ``x``, ``q``,
+    ``darboux0``, the clamps, ``par``)."""
+    x, q = a["x"], a["q"]
+    P = a["par"][0]
+    l0 = float(np.sqrt(1.0 / P["inv_l0sq"]))
+    a_ss = (float(P["ss_alpha1"]), float(P["ss_alpha2"]), float(P["ss_alpha3"]))
+    a_bt = (float(P["bt_alpha1"]), float(P["bt_alpha2"]), float(P["bt_alpha3"]))
+    c_ss = _rotate_back(q, np.diff(x, axis=0) / l0) - np.array([0.0, 0.0, 1.0])
+    stretch = float(np.sum(_quadratic(c_ss, a_ss)))
+    bt = _quadratic(2.0 / l0 * _relative(q[:-1], q[1:]) - a["darboux0"], a_bt) if len(q) > 1 else np.zeros(3)
+    halves = (2.0 * a_bt[0], 2.0 * a_bt[1], 2.0 * a_bt[2])
+    for e, k in enumerate(a["end_clamp"]):
+        if k >= 0 and a["pin_active"][a["clamp_pin"][k]]:
+            held, seg = a["clamp_q"][k:k + 1], q[-1:] if e else q[:1]
+            rel = _relative(seg, held) if e else _relative(held, seg)
+            bt = bt + _quadratic(4.0 / l0 * rel, halves)
+    return stretch, float(bt[0] + bt[1]), float(bt[2])

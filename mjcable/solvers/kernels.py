@@ -52,6 +52,7 @@ from mjcable.solvers.contact_kernels import (
     collect_impulses, contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
     update_anchors,  # noqa: F401
 )
+from mjcable.solvers.cosserat_kernels import frames_begin, frames_end, rod_iterate
 from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # noqa: F401
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
@@ -146,6 +147,8 @@ def begin_substep(S, sub, n_sub):
     kick = _gravity_kick(P)
     _predict(S.x, S.v, S.x0, S.w, S.react, P.h, P.damp, kick * P.gx, kick * P.gy, kick * P.gz)
     _move_pins(S, sub, n_sub)
+    if S.q.shape[0]:  # a Cosserat rod's frames (cosserat_kernels)
+        frames_begin(S, sub, n_sub)
     S.lam_s[:] = 0.0
     S.lam_d[:] = 0.0
     S.lam_b[:] = 0.0
@@ -191,7 +194,9 @@ def iterate(S):
     order = P.order
     x, w = S.x, S.w
     bend_or_clamp = P.bending != BEND_NONE or S.clamp_pq.shape[0] > 0
-    if order == ORDER_DIRECT:
+    if S.q.shape[0]:  # a Cosserat rod: its stretch–shear and bend–twist constraints replace the chain's
+        rod_iterate(S)
+    elif order == ORDER_DIRECT:
         direct_solve(S, at_s, at_b, at_c, k_s, k_b, k_c)
         if not P.direct_all and bend_or_clamp:  # PBD/Jakobsen: only the stretch chain is solved directly
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
@@ -234,6 +239,8 @@ def end_substep(S):
             collect_impulses(S)
         update_anchors(S)
     _velocities(x, S.v, S.x0, 1.0 / P.h)
+    if S.q.shape[0]:
+        frames_end(S)
     return _pin_forces(S)
 
 
@@ -288,11 +295,11 @@ def _pin_forces(S):
 
 @_inline
 def is_plain(S):
-    """Whether a substep is :func:`plain_substep`'s: Gauss-Seidel order, no bending, no clamps, no obstacle shapes
-    and no contacts."""
+    """Whether a substep is :func:`plain_substep`'s: Gauss-Seidel order, no bending, no clamps, no obstacle shapes,
+    no contacts and no frames."""
     P = S.par[0]
     return (P.order == ORDER_GAUSS_SEIDEL and P.bending == BEND_NONE and S.clamp_pq.shape[0] == 0
-            and S.shape_type.shape[0] == 0 and P.n_con == 0 and P.n_self == 0)
+            and S.shape_type.shape[0] == 0 and P.n_con == 0 and P.n_self == 0 and S.q.shape[0] == 0)
 
 
 @_inline
@@ -450,6 +457,7 @@ def _end_step(S):
     pin_from, pin_to = S.pin_from, S.pin_to
     for q in range(pin_to.shape[0]):
         pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
+    S.clamp_qfrom[:, :] = S.clamp_qto  # (a Cosserat rod's clamped frames, like the pins)
     if not P.host:
         P.time += P.dt
     check, value, where = step_check(S.x, S.v, S.prev, S.rest, S.pin_p, S.pin_to, S.pin_active, S.par)

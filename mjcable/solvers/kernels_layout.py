@@ -108,6 +108,10 @@ PARAMS = np.dtype([
     # Verlet's start (Jakobsen, PBD's Verlet): the next substep is the first from the start state (at rest, v = 0),
     # whose prediction is Taylor's x₁ = x₀ + h v₀ + ½ g h² (half of gravity's velocity h g); False after it
     ("verlet_start", "?"),
+    # the cosserat rod's compliances (cosserat_kernels): stretch–shear rows (shear, shear, stretch; 1/(N·m)) and
+    # bend–twist rows (bend about d₁, bend about d₂, twist; 1/(N·m³))
+    ("ss_alpha1", "f8"), ("ss_alpha2", "f8"), ("ss_alpha3", "f8"),
+    ("bt_alpha1", "f8"), ("bt_alpha2", "f8"), ("bt_alpha3", "f8"),
 ])
 
 
@@ -205,6 +209,20 @@ FIELDS = (
     ("lam_gs", _F1, "(n,) stretch multipliers of the last direct solve"),
     ("gs_blocks", _F2, "(n, 12) or (0, 12) per segment of a stretch chain (par.gs_chain): its direction n (3), the "
      "block solve's E = Π D⁻¹ Π (6: xx, yy, zz, xy, xz, yz) and forward-substituted y (3)"),
+    # the cosserat rod's material frames (cosserat_kernels; every array (0, ...) for the other models)
+    ("q", _F2, "(n, 4) segment frames, unit quaternions (w, x, y, z), body to world"),
+    ("q0", _F2, "(n, 4) frames at the substep's start"), ("omega", _F2, "(n, 3) rad/s angular velocities (body)"),
+    ("inertia", _F2, "(n, 3) kg·m² principal rotational inertias (body)"),
+    ("wq", _F2, "(n, 3) 1/(kg·m²) inverse inertias (0: a held frame)"),
+    ("darboux0", _F2, "(n-1, 3) 1/m rest Darboux vectors"), ("lam_ss", _F2, "(n, 3) stretch–shear multipliers"),
+    ("lam_bt", _F2, "(n-1, 3) bend–twist multipliers"),
+    ("lam_end", _F2, "(2, 3) multipliers of the clamps' constraints at the rod's start and end"),
+    ("clamp_seg", _I1, "(K,) the segment next to a clamp"), ("clamp_q", _F2, "(K, 4) the frame a clamp holds"),
+    ("clamp_qfrom", _F2, "(K, 4) its target at the step's start"), ("clamp_qto", _F2, "(K, 4) at its end"),
+    ("clamp_react", _F2, "(K, 3) Σ R ∇_c Cᵀ Δλ the clamp's frame collects (world)"),
+    ("end_clamp", _I1, "(2,) the clamp row at the rod's start and end (−1: none)"),
+    ("cs_jac", _F3, "(4n + 4, 3, 3) Jacobian blocks"), ("cs_band", _F2, "(6n + 3, 9) the direct solve's band"),
+    ("cs_rhs", _F1, "(6n + 3,) its right-hand side, then Δλ"), ("cs_db", _F2, "(n, 3) rad body rotations of a solve"),
 )
 
 
@@ -331,6 +349,20 @@ def _geometric(S, gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot, gs_band,
 
 
 @_jit
+def _frames(S, q, q0, omega, inertia, wq, darboux0, lam_ss, lam_bt, lam_end):
+    S.q, S.q0, S.omega, S.inertia, S.wq, S.darboux0 = q, q0, omega, inertia, wq, darboux0
+    S.lam_ss, S.lam_bt, S.lam_end = lam_ss, lam_bt, lam_end
+
+
+@_jit
+def _frame_scratch(S, clamp_seg, clamp_q, clamp_qfrom, clamp_qto, clamp_react, end_clamp, cs_jac, cs_band, cs_rhs,
+                   cs_db):
+    S.clamp_seg, S.clamp_q, S.clamp_qfrom, S.clamp_qto = clamp_seg, clamp_q, clamp_qfrom, clamp_qto
+    S.clamp_react, S.end_clamp = clamp_react, end_clamp
+    S.cs_jac, S.cs_band, S.cs_rhs, S.cs_db = cs_jac, cs_band, cs_rhs, cs_db
+
+
+@_jit
 def _new():
     return structref.new(STATE_TYPE)
 
@@ -359,6 +391,9 @@ _PARTS = (
     (_scratch_forces, ("force", "applied")),
     (_geometric, ("gs_row_kind", "gs_row_idx", "gs_row_p", "gs_prow", "gs_pslot", "gs_band", "gs_grad", "gs_rhs",
                   "lam_gs", "gs_blocks")),
+    (_frames, ("q", "q0", "omega", "inertia", "wq", "darboux0", "lam_ss", "lam_bt", "lam_end")),
+    (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "end_clamp", "cs_jac",
+                      "cs_band", "cs_rhs", "cs_db")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

@@ -22,7 +22,9 @@ __all__ = [
     "JakobsenSettings",
     "PBDSettings",
     "XPBDSettings",
+    "CosseratSettings",
     "ORDERS",
+    "COSSERAT_ORDERS",
     "BENDING_KINDS",
     "INTEGRATORS",
     "DEFAULT_CONTACT_MARGIN",
@@ -32,6 +34,7 @@ __all__ = [
 ]
 
 ORDERS = ("gauss-seidel", "jacobi", "direct")
+COSSERAT_ORDERS = ("direct", "gauss-seidel")
 BENDING_KINDS = ("auto", "none", "curvature", "distance")
 INTEGRATORS = ("euler", "verlet")
 DEFAULT_CONTACT_MARGIN = 0.005  # m, added to the distance the cable can travel in one step (see contacts.py)
@@ -170,6 +173,20 @@ class XPBDSettings(ParticleSettings):
         super().__post_init__()
         _validate.optional_number("stretch_compliance", self.stretch_compliance, low=0.0, unit="m/N")
         _validate.optional_number("bend_compliance", self.bend_compliance, low=0.0)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class CosseratSettings(ParticleSettings):
+    """``cosserat``: :class:`ParticleSettings` with ``order`` ``"direct"`` (default: one banded solve over the rod
+    per iteration, [D18]) or ``"gauss-seidel"`` (constraint by constraint; stiff rods need many iterations), and
+    ``bending`` ``"auto"`` (the rod's bend–twist constraints; the other kinds belong to the point chains)."""
+
+    order: str = "direct"
+
+    def __post_init__(self):
+        super().__post_init__()
+        _validate.choice("order", self.order, COSSERAT_ORDERS)
+        _validate.choice("bending", self.bending, ("auto",))
 
 
 def bending_kind(settings: ParticleSettings, bending_stiffness: float, override) -> str:

@@ -22,7 +22,7 @@ from mjcable.scene import Scene
 from mjcable.solvers import kernels_layout as layout
 from mjcable.solvers.settings import ParticleSettings
 
-__all__ = ["Rules", "StateArrays", "chain_arrays", "ORDER_CODES", "BENDING_CODES"]
+__all__ = ["Rules", "StateArrays", "chain_arrays", "quat_mul", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
 
 ORDER_CODES = {"gauss-seidel": layout.ORDER_GAUSS_SEIDEL, "jacobi": layout.ORDER_JACOBI,
                "direct": layout.ORDER_DIRECT}
@@ -49,6 +49,9 @@ class Rules:
       geometric_stiffness: with ``order="direct"``, the stretch rows' geometric stiffness λ ∇²C where the tension
         needs it (a KKT solve in positions and multipliers, :mod:`mjcable.solvers.direct_kernels`): for multipliers
         that are forces (XPBD, k = 1).
+      rod_compliance: a Cosserat rod's six compliances (stretch–shear: shear, shear, stretch in 1/(N·m);
+        bend–twist: bend, bend, twist in 1/(N·m³); :mod:`mjcable.solvers.cosserat_kernels`), which gives every
+        segment a material frame; ``None``: no frames (the state's frame fields are empty).
     """
 
     verlet_start: bool
@@ -62,6 +65,7 @@ class Rules:
     sqrt_approx: bool = False
     direct_bending: bool = False
     geometric_stiffness: bool = False
+    rod_compliance: Optional[tuple] = None
 
 
 def _perpendiculars(axis: np.ndarray) -> np.ndarray:
@@ -213,4 +217,70 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         if name not in a:
             a[name] = np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype)))
     a["start_from"], a["start_to"], a["target"] = (np.zeros((n_pins, 3)) for _ in range(3))
+    if rules.rod_compliance is not None:
+        a.update(_rod_arrays(scene, clamps))
+        for name, value in zip(("ss_alpha1", "ss_alpha2", "ss_alpha3", "bt_alpha1", "bt_alpha2", "bt_alpha3"),
+                               rules.rod_compliance):
+            P[name] = value
     return a
+
+
+#: (w, x, y, z) of the turn taking a body's z axis to its x axis (+90° about y): a frame from
+#: :func:`mjcable.mjcf.joints.segment_frames` (x along the segment) times it has d₃ along the segment
+_Z_TO_X = np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0])
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products of quaternions (..., 4) (w, x, y, z)."""
+    aw, av, bw, bv = a[..., :1], a[..., 1:], b[..., :1], b[..., 1:]
+    return np.concatenate([aw * bw - np.sum(av * bv, axis=-1, keepdims=True),
+                           aw * bv + bw * av + np.cross(av, bv)], axis=-1)
+
+
+def start_frames(particles: np.ndarray) -> np.ndarray:
+    """``(n, 4)`` material frames (w, x, y, z) of a polyline's segments: d₃ along each segment, transported along the
+    curve without twist (:func:`mjcable.mjcf.joints.segment_frames`)."""
+    from mjcable.mjcf.joints import segment_frames  # (the MjSpec side; imported here only)
+
+    return quat_mul(segment_frames(particles), _Z_TO_X)
+
+
+def darboux(frames: np.ndarray, segment_length: float) -> np.ndarray:
+    """``(n − 1, 3)`` 1/m discrete Darboux vectors (2 / l₀) Im(q̄ᵢ ⊗ q_{i+1}) of frames ``(n, 4)``, each relative
+    rotation taken with w ≥ 0 ([KS16] Eq. 32, :mod:`mjcable.solvers.cosserat_kernels`)."""
+    conj = frames[:-1] * np.array([1.0, -1.0, -1.0, -1.0])
+    r = quat_mul(conj, frames[1:])
+    r *= np.where(r[:, :1] < 0.0, -1.0, 1.0)
+    return 2.0 / segment_length * r[:, 1:]
+
+
+def _rod_arrays(scene: Scene, clamps: list) -> dict:
+    """The frame fields of a Cosserat rod (:data:`~mjcable.solvers.kernels_layout.FIELDS`, "material frames") for
+    ``scene``'s start curve: frames without twist, at rest; the rest Darboux vectors zero (``rest_shape="straight"``)
+    or the start curve's (``"start"``); each segment's rotational inertia that of its slice of the rod, ρ l₀ (I, I, J)
+    = m (r²/4, r²/4, r²/2); a clamp's frame starts as its segment's.
+
+    Raises:
+      ValueError: a clamp at an interior particle (a clamped frame is a constraint at the rod's start or end)."""
+    cable = scene.cable
+    n = cable.n_segments
+    q = start_frames(cable.particles)
+    m = cable.mass / n
+    inertia = np.tile([m * cable.radius**2 / 4.0, m * cable.radius**2 / 4.0, m * cable.radius**2 / 2.0], (n, 1))
+    ends = np.full(2, -1, dtype=np.int64)
+    for row, k in enumerate(clamps):
+        p = scene.pin_particle(k)
+        if p not in (0, n):
+            raise ValueError(f"pins[{k}]: model 'cosserat' clamps the rod's first or last particle (0 or {n}), got "
+                             f"a clamp at particle {p}; drop clamp=True or move the pin to an end")
+        if ends[0 if p == 0 else 1] < 0:
+            ends[0 if p == 0 else 1] = row
+    seg = np.array([min(scene.pin_particle(k), n - 1) for k in clamps], dtype=np.int64)
+    rest = cable.rest_shape
+    omega0 = darboux(q, cable.segment_length) if rest == "start" else np.zeros((max(n - 1, 0), 3))
+    rows = 6 * n + 3
+    return dict(q=q, q0=q.copy(), omega=np.zeros((n, 3)), inertia=inertia, wq=1.0 / inertia, darboux0=omega0,
+                lam_ss=np.zeros((n, 3)), lam_bt=np.zeros((max(n - 1, 0), 3)), lam_end=np.zeros((2, 3)),
+                clamp_seg=seg, clamp_q=q[seg].copy(), clamp_qfrom=q[seg].copy(), clamp_qto=q[seg].copy(),
+                clamp_react=np.zeros((len(clamps), 3)), end_clamp=ends, cs_jac=np.zeros((4 * n + 4, 3, 3)),
+                cs_band=np.zeros((rows, 9)), cs_rhs=np.zeros(rows), cs_db=np.zeros((n, 3)))

@@ -1,0 +1,60 @@
+"""``cosserat``: a Cosserat rod in XPBD, particles and one material frame (a unit quaternion) per segment.
+
+Stretch–shear and bend–twist constraints of Kugelstadt & Schömer 2016 ("Position and Orientation Based Cosserat
+Rods", SCA 2016) with XPBD compliances (Macklin et al. 2016) from the physical cable, solved all at once per iteration
+as one banded system over the rod (``order="direct"``, Deul et al. 2018, "Direct Position-Based Solver for Stiff
+Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, with their sources, are in
+:mod:`mjcable.solvers.cosserat_kernels`. With l₀ the rest segment length:
+
+* stretch–shear of each segment: α = (1/(G·A l₀), 1/(G·A l₀), 1/(E·A l₀)), the stretch row 0 for an inextensible
+  cable (``stretch_stiffness=None``), the shear rows 0 for a cable without G (E = 0: its frames follow the tangent,
+  or the segment could grow across its frame's axis);
+* bend–twist between neighbouring segments: α = (1/(E·I l₀), 1/(E·I l₀), 1/(G·J l₀)); a rod without bending
+  stiffness (E = 0) has none of these rows' stiffness (α = ∞ is taken as a free joint: the rows are left at a
+  compliance of 1/(ε l₀) with ε = ``_LIMP`` N·m²);
+* G is the cable's ``shear_modulus``, or E / (2 (1 + ν)), ν = 0.5; A = π r², I = π r⁴ / 4, J = π r⁴ / 2;
+* the rest Darboux vectors are zero (``rest_shape="straight"``) or the start curve's (``"start"``);
+* a clamp holds its particle and the frame of the segment beside it (the whole frame: tangent and the turn about it);
+  a gripper's frame turns with :meth:`mjcable.Simulator.move_gripper`'s ``orientation``; a clamp's torque
+  (:attr:`mjcable.Simulator.pin_torques`) is the torque its frame receives, −Σ R ∇_b Cᵀ λ / h², axial torque
+  included;
+* pins, contacts and friction act on the particles as in ``xpbd``.
+"""
+
+from __future__ import annotations
+
+from mjcable.scene import Scene
+from mjcable.solvers.settings import ParticleSettings
+from mjcable.solvers.state import Rules
+
+__all__ = ["rules", "compliances"]
+
+_LIMP = 1e-12  # N·m²: the bending and twist stiffness standing in for none (E = 0): a free joint in practice
+
+
+def compliances(scene: Scene) -> tuple:
+    """The six compliances of ``scene``'s cable: stretch–shear (shear, shear, stretch) in 1/(N·m) and bend–twist
+    (bend, bend, twist) in 1/(N·m³) (see the module docstring)."""
+    cable = scene.cable
+    l0 = cable.segment_length
+    ga = cable.shear * cable.area
+    shear = 1.0 / (ga * l0) if ga > 0.0 else 0.0  # a rope without E: frames held to the tangent (Kirchhoff)
+    stretch = 0.0 if cable.stretch_stiffness is None else 1.0 / (cable.stretch_stiffness * l0)
+    bend = 1.0 / (max(cable.bending_stiffness, _LIMP) * l0)
+    twist = 1.0 / (max(cable.torsion_stiffness, _LIMP) * l0)
+    return (shear, shear, stretch, bend, bend, twist)
+
+
+def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
+    """The kernels' parameters of ``cosserat`` for ``scene`` (see the module docstring).
+
+    Raises:
+      ValueError: a body pin with a clamp (a frame held in a moving body is not implemented for ``cosserat``).
+    """
+    del settings, h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
+    for k, pin in enumerate(scene.pins):
+        if pin.kind == "body" and pin.clamp:
+            raise ValueError(f"pins[{k}]: a clamped body pin (clamp=True, kind='body') is not supported by model "
+                             "'cosserat' yet; clamp it in the world or to a gripper, or use model 'xpbd'")
+    return Rules(verlet_start=False, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0, k_stretch=1.0, k_bend=1.0,
+                 k_clamp=1.0, bending="none", rod_compliance=compliances(scene))

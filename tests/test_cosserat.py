@@ -1,0 +1,198 @@
+"""The ``cosserat`` rod against rod theory, in a zero-gravity user world where the reference needs it: torsion (end
+torque C φ / L, uniform twist φ s / L), a clamped quarter-circle arc (end torque B / R, no twist), a curved rest shape
+kept and returned to; and under gravity the bars the particle solvers pass (catenary, heavy cantilever). Plus what
+the other models say about twist, rest shapes, frames and turning grippers."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+import mjcable
+from mjcable import CableSpec, Pin, Scene, reference
+from mjcable.solvers.state import quat_mul, start_frames
+
+G = 9.81
+ZERO_G = '<mujoco><option gravity="0 0 0"/><worldbody/></mujoco>'
+L, RADIUS, YOUNG, N = 1.0, 0.005, 1e8, 50
+START = np.array([0.0, 0.0, 0.5])
+
+
+def _world():
+    return mujoco.MjSpec.from_string(ZERO_G)
+
+
+def _turn(axis, angle) -> np.ndarray:
+    """The unit quaternion (w, x, y, z) of a turn by ``angle`` rad about ``axis``."""
+    axis = np.asarray(axis, dtype=float)
+    return np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * axis / np.linalg.norm(axis)])
+
+
+def _straight(damping=30.0, **fields) -> CableSpec:
+    return CableSpec([START, START + [L, 0, 0]], N, RADIUS, 0.05, young=YOUNG, damping=damping, **fields)
+
+
+def _both_clamped(cable) -> Scene:
+    return Scene(cable, pins=(Pin(0, clamp=True), Pin(-1, "gripper", clamp=True)), world=_world())
+
+
+def _arc_point(theta, s):
+    """The point at arc length s of a rod of length L bent into a circular arc of total angle ``theta`` in the x-z
+    plane, starting at START along +x."""
+    if theta == 0.0:
+        return START + [s, 0.0, 0.0]
+    radius = L / theta
+    return START + radius * np.array([math.sin(s / radius), 0.0, 1.0 - math.cos(s / radius)])
+
+
+@pytest.mark.parametrize("phi", [0.5, math.pi, 2 * math.pi])
+def test_torsion_gives_the_end_torque_c_phi_over_l_and_a_uniform_twist(phi):
+    cable = _straight()
+    sim = mjcable.Simulator(_both_clamped(cable), "cosserat")
+    end = sim.gripper_positions[0]
+    for j in range(1, 41):  # turn the gripper about the rod's axis in 40 steps, then settle
+        sim.move_gripper(1, end, _turn([1, 0, 0], phi * j / 40))
+        sim.step()
+    sim.step(1.0)
+    torque = cable.torsion_stiffness * phi / L
+    assert sim.pin_torques[1, 0] == pytest.approx(torque, rel=0.01)
+    assert -sim.pin_torques[0, 0] == pytest.approx(torque, rel=0.01)
+    # each segment's turn about the axis from its start frame: φ s / L at its centre s
+    turned = quat_mul(sim.frames, start_frames(cable.particles) * [1, -1, -1, -1])
+    angle = np.unwrap(2 * np.arctan2(turned[:, 1], turned[:, 0]))
+    s = (np.arange(N) + 0.5) * cable.segment_length
+    np.testing.assert_allclose(angle, phi * s / L, rtol=0.02, atol=0.0)
+
+
+def test_arc_bending_lies_on_the_arc_with_end_torque_b_over_r_and_no_twist():
+    cable = _straight()
+    sim = mjcable.Simulator(_both_clamped(cable), "cosserat")
+    for j in range(1, 101):  # bend through arcs of growing angle up to a quarter circle
+        theta = 0.5 * math.pi * j / 100
+        sim.move_gripper(1, _arc_point(theta, L), _turn([0, -1, 0], theta))
+        sim.step()
+    sim.step(1.0)
+    radius, b = 2 * L / math.pi, cable.bending_stiffness
+    s = np.arange(N + 1) * cable.segment_length
+    arc = np.array([_arc_point(0.5 * math.pi, si) for si in s])
+    assert np.linalg.norm(sim.positions - arc, axis=1).max() < 0.5e-3
+    for k in range(2):
+        assert np.linalg.norm(sim.pin_torques[k]) == pytest.approx(b / radius, rel=0.01)
+        assert np.linalg.norm(sim.pin_forces[k]) < 0.01 * b / radius**2
+    f = sim.frames
+    relative = quat_mul(f[:-1] * [1, -1, -1, -1], f[1:])  # each joint's turn, in the frame of its first segment
+    assert np.abs(np.sum(2 * relative[:, 3])) < 1e-3  # the twist about d₃, summed along the rod
+
+
+def test_curved_rest_shape_is_kept_and_returned_to_after_a_pull_and_release():
+    radius = 2 * L / math.pi
+    a = np.linspace(0.0, 0.5 * math.pi, 60)
+    points = START + radius * np.stack([np.sin(a), np.zeros_like(a), 1.0 - np.cos(a)], axis=1)
+    cable = CableSpec(points, N, RADIUS, 0.05, young=YOUNG, damping=6.0, rest_shape="start")
+    scene = Scene(cable, pins=(Pin(0, "gripper", clamp=True), Pin(-1, "socket", release_force=0.05)),
+                  world=_world())
+    sim = mjcable.Simulator(scene, "cosserat")
+    start = sim.positions
+    sim.step(1.0)
+    assert np.linalg.norm(sim.positions - start, axis=1).max() < 1e-4
+    g0 = sim.gripper_positions[0]
+    for j in range(1, 101):  # pull the clamped end aside until the far end's socket lets go
+        sim.move_gripper(0, g0 + [0.0, 1e-3 * j, 0.0])
+        sim.step()
+        if sim.released:
+            break
+    assert sim.released == {1}
+    assert np.linalg.norm(sim.positions - start, axis=1).max() > 5e-3
+    sim.move_gripper(0, g0)
+    sim.step(4.0)
+    assert np.linalg.norm(sim.positions - start, axis=1).max() < 1e-4
+
+
+def test_hanging_rod_settles_on_the_catenary(catenary):
+    scene = mjcable.scenes.get("hang", damping=20.0)  # 50 segments, 1 m over 0.8 m
+    sim = mjcable.Simulator(scene, "cosserat")
+    sim.step(1.5)
+    c = scene.cable
+    assert np.max(np.linalg.norm(sim.positions - catenary(1.0, 0.8, 1.0, np.arange(c.n_particles)
+                                                          * c.segment_length), axis=1)) < 1e-3
+
+
+@pytest.mark.parametrize("load", [1.0, 10.0])
+def test_heavy_cantilever_is_the_elastica(load):
+    """q L³ / E I = ``load``: the tip within 0.5 % of the heavy elastica's (and the clamp holds the weight's
+    moment)."""
+    mass = 0.1
+    q = mass * G / L
+    ei = q * L**3 / load
+    damping = 2 * 3.52 * math.sqrt(G / (load * L))  # about critical for the first mode, ω = 3.52 √(E I / ρ L⁴)
+    cable = CableSpec([[0, 0, 1], [L, 0, 1]], N, RADIUS, mass, young=ei / (math.pi * RADIUS**4 / 4), damping=damping)
+    sim = mjcable.Simulator(Scene(cable, pins=(Pin(0, clamp=True),)), "cosserat")
+    sim.step(5.0)
+    assert 1.0 - sim.positions[-1, 2] == pytest.approx(reference.cantilever(L, q, ei).tip_deflection, rel=0.005)
+    x = sim.positions
+    lever = np.sum(sim.particle_masses * (x[:, 0] - x[0, 0])) / mass
+    assert -sim.pin_torques[0, 1] == pytest.approx(mass * G * lever, rel=0.01)
+
+
+def test_gauss_seidel_converges_to_the_direct_solve():
+    """Gauss-Seidel (one 3×3 block per constraint) with enough iterations reaches the direct solve's torsion."""
+    cable = CableSpec([START, START + [0.2, 0, 0]], 8, RADIUS, 0.05, young=YOUNG, damping=30.0)
+    torques = []
+    for settings in ({}, {"order": "gauss-seidel", "iterations": 200}):
+        sim = mjcable.Simulator(_both_clamped(cable), "cosserat", **settings)
+        end = sim.gripper_positions[0]
+        sim.move_gripper(1, end, _turn([1, 0, 0], 0.3))
+        sim.step(0.5)
+        torques.append(sim.pin_torques[1, 0])
+    assert torques[1] == pytest.approx(cable.torsion_stiffness * 0.3 / 0.2, rel=0.01)
+    assert torques[1] == pytest.approx(torques[0], rel=0.01)
+
+
+def test_what_the_other_models_cannot_honour_they_say():
+    bent = CableSpec([[0, 0, 1], [0.3, 0, 1.1], [0.6, 0, 1]], 10, RADIUS, 0.05, young=1e6, rest_shape="start")
+    with pytest.raises(ValueError, match="rest_shape.*'xpbd'.*cosserat"):
+        mjcable.Simulator(Scene(bent), "xpbd")
+    with pytest.warns(UserWarning, match="'flexrod' has no torsional stiffness.*shear_modulus"):
+        mjcable.Simulator(Scene(bent.__class__(bent.points, 10, RADIUS, 0.05, shear_modulus=1e5)), "flexrod")
+    scene = Scene(_straight(), pins=(Pin(0), Pin(-1, "gripper", clamp=True)))
+    xpbd = mjcable.Simulator(scene, "xpbd")
+    with pytest.raises(ValueError, match="frames: model 'xpbd'"):
+        xpbd.frames
+    with pytest.raises(ValueError, match="orientation: model 'xpbd'"):
+        xpbd.move_gripper(1, xpbd.gripper_positions[0], _turn([1, 0, 0], 0.1))
+    rod = mjcable.Simulator(scene, "cosserat")
+    with pytest.raises(ValueError, match="orientation must be a unit quaternion"):
+        rod.move_gripper(1, rod.gripper_positions[0], [1, 1, 0, 0])
+    assert rod.frames.shape == (N, 4)
+    loose = mjcable.Simulator(Scene(_straight(), pins=(Pin(-1, "gripper"),)), "cosserat")
+    with pytest.raises(ValueError, match="not clamped"):
+        loose.move_gripper(0, loose.gripper_positions[0], _turn([1, 0, 0], 0.1))
+    with pytest.raises(ValueError, match="first or last particle"):
+        mjcable.Simulator(Scene(_straight(), pins=(Pin(10, clamp=True),)), "cosserat")
+
+
+def test_the_energy_is_the_rods_torsion_and_bending():
+    """Twisted by φ: ½ C φ² / L of twist; bent into a quarter circle: ½ B L / R² of bending (both clamped ends'
+    half segments included)."""
+    cable = _straight()
+    phi = math.pi
+    sim = mjcable.Simulator(_both_clamped(cable), "cosserat")
+    end = sim.gripper_positions[0]
+    for j in range(1, 41):
+        sim.move_gripper(1, end, _turn([1, 0, 0], phi * j / 40))
+        sim.step()
+    sim.step(1.0)
+    e = sim.energy(parts=True)
+    assert e.twist == pytest.approx(0.5 * cable.torsion_stiffness * phi**2 / L, rel=0.01)
+    assert e.bending < 1e-3 * e.twist and e.stretch < 1e-3 * e.twist
+    sim = mjcable.Simulator(_both_clamped(cable), "cosserat")
+    for j in range(1, 101):
+        theta = 0.5 * math.pi * j / 100
+        sim.move_gripper(1, _arc_point(theta, L), _turn([0, -1, 0], theta))
+        sim.step()
+    sim.step(1.0)
+    e = sim.energy(parts=True)
+    radius = 2 * L / math.pi
+    assert e.bending == pytest.approx(0.5 * cable.bending_stiffness * L / radius**2, rel=0.01)
+    assert e.twist < 1e-3 * e.bending
