@@ -207,7 +207,16 @@ def test_the_warned_stiffness_fraction_is_the_measured_sag_against_beam_theory(m
         assert drop == pytest.approx(beam / f, rel=0.08)
 
 
-@pytest.mark.parametrize("model", PARTICLE)
+def test_a_cosserat_rod_under_gauss_seidel_warns_that_it_needs_to_converge():
+    """The rod's Gauss-Seidel order warns that it reaches its stated stiffness only when converged; the direct order
+    (tests/test_cosserat.py: the elastica within 0.5 %) does not."""
+    scene = _cantilever(40, 1.0)
+    said = _build(scene, "cosserat", order="gauss-seidel")[1]
+    assert any("order='direct'" in m and "only once the Gauss-Seidel sweeps converge" in m for m in said), said
+    assert not [m for m in _build(scene, "cosserat", order="direct")[1] if "Gauss-Seidel" in m]
+
+
+@pytest.mark.parametrize("model", [m for m in PARTICLE if m != "cosserat"])
 def test_the_heavy_cantilever_of_the_issue_warns_that_gauss_seidel_leaves_it_limp(model):
     """q L³ / E·I = 1, 40 segments, Gauss-Seidel: the tip drops 7 times beam theory's (the rod hangs limp); the
     warning says so and points to the direct order."""
