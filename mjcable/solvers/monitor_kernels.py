@@ -83,7 +83,8 @@ def step_check(x, v, prev, rest, pin_p, pin_to, pin_active, lim):
 def contact_depth(S):
     """(``WARN_DEPTH``, depth in m, segment) if the centreline of a segment in an obstacle contact of the step lies
     inside the obstacle (the cable's surface deeper than its radius, measured against the obstacle's own shape,
-    :func:`~mjcable.solvers.contact_kernels.shape_distance`), else (``CHECK_OK``, 0.0, −1); the deepest such."""
+    :func:`~mjcable.solvers.contact_kernels.shape_distance`, where the detection's half-space, which holds the convex
+    obstacle, says it may be), else (``CHECK_OK``, 0.0, −1); the deepest such."""
     P = S.par[0]
     x, radius = S.x, P.radius
     shapes = shapes_of(S)
@@ -94,12 +95,13 @@ def contact_depth(S):
         py = (1.0 - s) * x[i, 1] + s * x[i + 1, 1]
         pz = (1.0 - s) * x[i, 2] + s * x[i + 1, 2]
         n0x, n0y, n0z = S.con_normal[c, 0], S.con_normal[c, 1], S.con_normal[c, 2]
+        gap = n0x * px + n0y * py + n0z * pz - S.con_offset[c]  # the detection's half-space
+        if gap >= -radius:  # a convex obstacle lies inside its tangent half-space: not deep (the usual case)
+            continue
         row = S.con_shape[c]
         if row >= 0:
             gap, _, _, _ = shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, S.con_offset[c], radius,
                                           S.con_face[c])
-        else:
-            gap = n0x * px + n0y * py + n0z * pz - S.con_offset[c]
         depth = -gap  # how far the cable's surface reaches into the obstacle, m
         if depth > radius and depth > deepest:
             deepest, seg = depth, i
