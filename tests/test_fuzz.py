@@ -36,7 +36,7 @@ def _case(draw, model):
     return scene, cable, dt, options
 
 
-ELASTIC = ("springs", "flexrod", "xpbd")  # the models whose stretch is E·A
+ELASTIC = mjcable.catalog.honouring("stretch_stiffness")  # the models whose stretch is E·A
 
 
 def _wrong(sim, scene) -> list:
