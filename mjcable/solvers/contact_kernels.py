@@ -21,7 +21,9 @@ point in deeper than it was, and pushes the old depth out at v_d at most, whatev
 correction from the velocity it leaves, as in Macklin et al. 2014's pre-stabilisation of initial overlaps). Only
 the part of Δλₙ that stops this substep's own motion into the obstacle (below C₀) counts as the particle's normal
 load for friction; the push-out of the old depth is no force that holds it. A moving obstacle's C₀ is measured
-against its new pose, which is its motion, and is projected whole.
+against its new pose, which is its motion, and is projected whole. The sweep projects the static obstacles'
+contacts after the moving ones', so that a cable squeezed between a moving body and a static one leaves no depth in
+the static one (which would otherwise count as old depth, and carry none of the squeeze's load).
 
 **Friction per particle.** Several segment contacts share a particle (a rope wrapped on a peg touches it with every
 chord), and the split of the normal force between neighbouring chords is statically indeterminate: a Gauss-Seidel
@@ -232,8 +234,9 @@ def contact_sweep(S):
     ``con_face``, multipliers ``con_lam``). Projects C ≥ 0 (module docstring; on a static obstacle C ≥ min(0, C₀ +
     v_d h), C₀ at the substep's start ``x0``) against the obstacle's shape, and adds each particle's share of the
     Δλₙ that stops this substep's motion to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``,
-    ``fric_normal``, the obstacle ``fric_ob``). A held particle (w = 0) collects its share of ∇C Δλ in ``react``;
-    a contact nearer a held particle than its segment's middle is left to the pin."""
+    ``fric_normal``, the obstacle ``fric_ob``); the static obstacles' contacts come last. A held particle (w = 0)
+    collects its share of ∇C Δλ in ``react``; a contact nearer a held particle than its segment's middle is left to
+    the pin."""
     P = S.par[0]
     radius = P.radius
     recover = DEPENETRATION_SPEED * P.h
@@ -243,7 +246,11 @@ def contact_sweep(S):
     seg, con_s, con_normal, con_offset, con_mu, con_shape, con_face, lam = (
         S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam)
     shapes = shapes_of(S)
-    for c in range(P.n_con):
+    for q in range(2 * P.n_con):
+        c = q % P.n_con
+        k = con_shape[c]
+        if (q < P.n_con) == (k >= 0 and not moves[k]):  # static obstacles second: they hold when the sweep ends
+            continue
         i = seg[c]
         j = i + 1
         s = con_s[c]
@@ -265,7 +272,6 @@ def contact_sweep(S):
             px = a * x[i, 0] + b * x[j, 0]
             py = a * x[i, 1] + b * x[j, 1]
             pz = a * x[i, 2] + b * x[j, 2]
-        k = con_shape[c]
         if k >= 0:
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
                                               con_normal[c, 2], con_offset[c], radius, con_face[c])
