@@ -5,7 +5,8 @@ Every function here takes a model label's ``(model, dt, settings)`` or a :class:
 all models are measured alike; :mod:`mjcable.bench.scenarios` wraps them into the sweep's scenarios.
 
 * **capstan**: :func:`capstan_scene` hangs a limp rope over a horizontal peg (half a turn, θ = π) with legs whose
-  heavy-rope ratio (:func:`mjcable.reference.heavy_capstan_ratio`) is ``factor`` times the law's e^{μπ};
+  heavy-rope ratio (:func:`mjcable.reference.heavy_capstan_ratio`) is ``factor`` times the law's e^{μπ} (its start
+  clear of the peg, cut into it, or dropped onto it);
   :func:`capstan_end_speed` runs one probe (the long end's mean speed over seconds 1 to 3, after 1 s of settling)
   and :func:`capstan_slip_factor` bisects the factor at which the rope slides.
 * **incline**: :func:`incline_scene` lays a cable down (or across) the slope of a tilted box;
@@ -133,8 +134,8 @@ def capstan_scene(factor: float, *, mu: float, segments_per_metre: int = 50, peg
     + rope radius, l₀ the segment), so that the middles of its chords start ``clearance`` from the peg (negative:
     the chords cut into it), and straight vertical legs, all raised by ``lift`` (the rope drops onto the peg).
     Once the rope lies on the peg the start arc's excess length (its chords' length less π R_c) has gone to the
-    legs; the start legs are shorter than the design's by half of it each. (How the excess splits,
-    the chords on the wrapped arc and the contacts' penetration shift the legs by up to about 1 % of the ratio.)
+    legs; the start legs are shorter than the design's by half of it each. (How the excess splits, the chords on
+    the wrapped arc and the contacts' penetration shift the legs by up to about 1 % of the ratio.)
 
     Args:
       factor: the ratio in units of the law (> 0).
@@ -183,9 +184,9 @@ def capstan_scene(factor: float, *, mu: float, segments_per_metre: int = 50, peg
 def capstan_end_speed(model: str, dt: float, settings: dict, *, factor: float, mu: float,
                       segments_per_metre: int = 50, clearance: float = START_CLEARANCE, lift: float = 0.0) -> float:
     """One probe: the long end's mean speed in m/s over seconds :data:`SETTLE_TIME` to
-    :data:`SETTLE_TIME` + :data:`MEASURE_TIME` of :func:`capstan_scene` (``factor``, ``mu``) simulated by ``model``
-    at ``dt`` with ``settings`` (``clearance`` and ``lift``: the start's, :func:`capstan_scene`). Holding: below :data:`HOLD_SPEED`; sliding: above :data:`SLIDE_SPEED`; NaN when
-    the simulation diverged.
+    :data:`SETTLE_TIME` + :data:`MEASURE_TIME` of :func:`capstan_scene` (``factor``, ``mu``, and the start's
+    ``clearance`` and ``lift``) simulated by ``model`` at ``dt`` with ``settings``. Holding: below
+    :data:`HOLD_SPEED`; sliding: above :data:`SLIDE_SPEED`; NaN when the simulation diverged.
 
     Raises:
       Exception: what building the simulator or stepping it raises, but for a divergence (NaN).
