@@ -18,12 +18,14 @@ contact that a query found late, a sideways friction correction of a chord on a 
 substep at d₀ / h, faster the finer the substep: 2.4 m/s for 0.3 mm at h = 0.125 ms, which throws a rope off a peg. A
 static obstacle therefore projects C ≥ min(0, C₀ + v_d h) with v_d = ``DEPENETRATION_SPEED``: it never lets the
 point in deeper than it was, and pushes the old depth out at v_d at most, whatever h (the split of a position
-correction from the velocity it leaves, as in Macklin et al. 2014's pre-stabilisation of initial overlaps). Only
-the part of Δλₙ that stops this substep's own motion into the obstacle (below C₀) counts as the particle's normal
-load for friction; the push-out of the old depth is no force that holds it. A moving obstacle's C₀ is measured
-against its new pose, which is its motion, and is projected whole. The sweep projects the static obstacles'
-contacts after the moving ones', so that a cable squeezed between a moving body and a static one leaves no depth in
-the static one (which would otherwise count as old depth, and carry none of the squeeze's load).
+correction from the velocity it leaves, as in Macklin et al. 2014's pre-stabilisation of initial overlaps). The
+push-out counts in the particle's normal load like any correction: the old depth of a resting or sliding rope is
+what the sweeps after the contacts left (friction's sideways corrections of chords on a curved surface), and its
+push-out is the surface's reaction to them, while a start overlap's adds at most v_d h per substep, for depth / v_d
+(``docs/measurements.md``). A moving obstacle's C₀ is measured against its new pose, which is its motion, and is
+projected whole. The sweep projects the static obstacles' contacts after the moving ones', so that a cable squeezed
+between a moving body and a static one leaves no depth in the static one (which would push it out at v_d only, and
+carry little of the squeeze's load).
 
 **Friction per particle.** Several segment contacts share a particle (a rope wrapped on a peg touches it with every
 chord), and the split of the normal force between neighbouring chords is statically indeterminate: a Gauss-Seidel
@@ -232,11 +234,10 @@ def contact_sweep(S):
     """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
     normal ``con_normal`` and ``con_offset``, ``con_mu``, obstacle row ``con_shape`` or −1, a static box's face
     ``con_face``, multipliers ``con_lam``). Projects C ≥ 0 (module docstring; on a static obstacle C ≥ min(0, C₀ +
-    v_d h), C₀ at the substep's start ``x0``) against the obstacle's shape, and adds each particle's share of the
-    Δλₙ that stops this substep's motion to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``,
-    ``fric_normal``, the obstacle ``fric_ob``); the static obstacles' contacts come last. A held particle (w = 0)
-    collects its share of ∇C Δλ in ``react``; a contact nearer a held particle than its segment's middle is left to
-    the pin."""
+    v_d h), C₀ at the substep's start ``x0``) against the obstacle's shape, and adds each particle's share of
+    Δλₙ to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``, ``fric_normal``, the obstacle ``fric_ob``);
+    the static obstacles' contacts come last. A held particle (w = 0) collects its share of ∇C Δλ in ``react``; a
+    contact nearer a held particle than its segment's middle is left to the pin."""
     P = S.par[0]
     radius = P.radius
     recover = DEPENETRATION_SPEED * P.h
@@ -291,21 +292,20 @@ def contact_sweep(S):
             continue
         dlam = -excess * inv_wsum
         lam[c] += dlam
-        load = min(max(start - cval, 0.0) * inv_wsum, dlam)  # the part that stops this substep's motion
         mu = con_mu[c]
         for p, f, wp in ((i, a, wi), (j, b, wj)):
             if f == 0.0:  # the contact acts at the other particle: none of its load, μ or obstacle here
                 continue
-            g = f * load
+            g = f * dlam
             if wp > 0.0:
-                m = wp * f * inv_wsum * excess  # −wₚ f Δλ, with C last: a short chain from x through C to Δx
+                m = wp * f * inv_wsum * excess  # −wₚ g, with C last: a short chain from x through C to Δx
                 x[p, 0] -= m * nx
                 x[p, 1] -= m * ny
                 x[p, 2] -= m * nz
             else:
-                react[p, 0] += f * dlam * nx
-                react[p, 1] += f * dlam * ny
-                react[p, 2] += f * dlam * nz
+                react[p, 0] += g * nx
+                react[p, 1] += g * ny
+                react[p, 2] += g * nz
             if fric_n[p] == 0.0 or k == anchor_ob[p]:
                 # the particle's friction obstacle: the one it is anchored on while it presses on it, else the
                 # first it presses in the substep (a particle between two obstacles keeps one anchor)
