@@ -87,6 +87,9 @@ def test_the_landings_start_cut_into_the_peg_or_above_it(factor):
     np.testing.assert_allclose(dropped.cable.particles, cut.cable.particles + [0.0, 0.0, DROP], atol=1e-12)
     assert (dropped.short, dropped.long, dropped.ratio) == (cut.short, cut.long, cut.ratio)
     assert _chord_gaps(dropped).min() > 0.0
+    for bad in ({"clearance": -0.005}, {"clearance": 0.05}, {"lift": -0.01}, {"lift": 0.2}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            contact.capstan_scene(factor, mu=CAPSTAN_MU, **bad)
 
 
 @pytest.mark.parametrize("model, substeps, dt, landing", list(_landing_cases()))
