@@ -16,16 +16,17 @@ surface follows it. Meshes and other types keep the detection's half-space n₀�
 the contact point already had when the substep began (C₀ = C(x₀) < 0: a start whose chords cut into the obstacle, a
 contact that a query found late, a sideways friction correction of a chord on a curved surface) would leave the
 substep at d₀ / h, faster the finer the substep: 2.4 m/s for 0.3 mm at h = 0.125 ms, which throws a rope off a peg. A
-static obstacle therefore projects C ≥ min(0, C₀ + v_d h) with v_d = ``DEPENETRATION_SPEED``: it never lets the
-point in deeper than it was, and pushes the old depth out at v_d at most, whatever h (the split of a position
-correction from the velocity it leaves, as in Macklin et al. 2014's pre-stabilisation of initial overlaps). The
-push-out counts in the particle's normal load like any correction: the old depth of a resting or sliding rope is
-what the sweeps after the contacts left (friction's sideways corrections of chords on a curved surface), and its
-push-out is the surface's reaction to them, while a start overlap's adds at most v_d h per substep, for depth / v_d
-(``docs/measurements.md``). A moving obstacle's C₀ is measured against its new pose, which is its motion, and is
-projected whole. The sweep projects the static obstacles' contacts after the moving ones', so that a cable squeezed
-between a moving body and a static one leaves no depth in the static one (which would push it out at v_d only, and
-carry little of the squeeze's load).
+static obstacle therefore projects C ≥ min(0, C₀ + v_d h) with v_d = ``DEPENETRATION_SPEED`` and C₀ =
+C − n·(p − p₀) (p₀ the point at the substep's start; exact on planes and box faces, to first order in |p − p₀| on
+round shapes): it never lets the point in deeper than it was, and pushes the old depth out at v_d at most, whatever
+h (the split of a position correction from the velocity it leaves, as in Macklin et al. 2014's pre-stabilisation of
+initial overlaps). The push-out counts in the particle's normal load like any correction: the old depth of a resting
+or sliding rope is what the sweeps after the contacts left (friction's sideways corrections of chords on a curved
+surface), and its push-out is the surface's reaction to them, while a start overlap's adds at most v_d h per
+substep, for depth / v_d (``docs/measurements.md``). A moving obstacle's C₀ would hold its motion, and is left out:
+its contacts are projected whole. Where some obstacle moves, the sweep projects the static obstacles' contacts after
+the moving ones', so that a cable squeezed between a moving body and a static one leaves no depth in the static one
+(which would push it out at v_d only, and carry little of the squeeze's load).
 
 **Friction per particle.** Several segment contacts share a particle (a rope wrapped on a peg touches it with every
 chord), and the split of the normal force between neighbouring chords is statically indeterminate: a Gauss-Seidel
@@ -234,7 +235,7 @@ def contact_sweep(S):
     """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
     normal ``con_normal`` and ``con_offset``, ``con_mu``, obstacle row ``con_shape`` or −1, a static box's face
     ``con_face``, multipliers ``con_lam``). Projects C ≥ 0 (module docstring; on a static obstacle C ≥ min(0, C₀ +
-    v_d h), C₀ at the substep's start ``x0``) against the obstacle's shape, and adds each particle's share of
+    v_d h), C₀ from the substep's start ``x0``) against the obstacle's shape, and adds each particle's share of
     Δλₙ to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``, ``fric_normal``, the obstacle ``fric_ob``);
     the static obstacles' contacts come last. A held particle (w = 0) collects its share of ∇C Δλ in ``react``; a
     contact nearer a held particle than its segment's middle is left to the pin."""
@@ -247,10 +248,14 @@ def contact_sweep(S):
     seg, con_s, con_normal, con_offset, con_mu, con_shape, con_face, lam = (
         S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam)
     shapes = shapes_of(S)
-    for q in range(2 * P.n_con):
-        c = q % P.n_con
+    n_con = P.n_con
+    mixed = False  # some obstacle moves: two passes, the static obstacles second (they hold when the sweep ends)
+    for r in range(moves.shape[0]):
+        mixed = mixed or moves[r]
+    for q in range(2 * n_con if mixed else n_con):
+        c = q % n_con
         k = con_shape[c]
-        if (q < P.n_con) == (k >= 0 and not moves[k]):  # static obstacles second: they hold when the sweep ends
+        if mixed and (q < n_con) == (k >= 0 and not moves[k]):
             continue
         i = seg[c]
         j = i + 1
@@ -281,12 +286,10 @@ def contact_sweep(S):
             cval = nx * px + ny * py + nz * pz - con_offset[c]
         if cval >= 0.0:
             continue
-        start = 0.0  # C₀, the depth of the same point at the substep's start (a static obstacle's)
+        start = 0.0  # C₀, the depth of the same point at the substep's start (a static obstacle's), C − n·(p − p₀)
         if k >= 0 and not moves[k]:
-            start, _, _, _ = shape_distance(a * x0[i, 0] + b * x0[j, 0], a * x0[i, 1] + b * x0[j, 1],
-                                            a * x0[i, 2] + b * x0[j, 2], shapes, k, con_normal[c, 0],
-                                            con_normal[c, 1], con_normal[c, 2], con_offset[c], radius, con_face[c])
-            start = min(start, 0.0)
+            start = min(cval - nx * (px - a * x0[i, 0] - b * x0[j, 0]) - ny * (py - a * x0[i, 1] - b * x0[j, 1])
+                        - nz * (pz - a * x0[i, 2] - b * x0[j, 2]), 0.0)
         excess = cval - min(start + recover, 0.0)  # C less its target: the depth this projection removes
         if excess >= 0.0:
             continue
