@@ -5,7 +5,8 @@ Every function here takes a model label's ``(model, dt, settings)`` or a :class:
 all models are measured alike; :mod:`mjcable.bench.scenarios` wraps them into the sweep's scenarios.
 
 * **capstan**: :func:`capstan_scene` hangs a limp rope over a horizontal peg (half a turn, θ = π) with legs whose
-  heavy-rope ratio (:func:`mjcable.reference.heavy_capstan_ratio`) is ``factor`` times the law's e^{μπ};
+  heavy-rope ratio (:func:`mjcable.reference.heavy_capstan_ratio`) is ``factor`` times the law's e^{μπ} (its start
+  clear of the peg, cut into it, or dropped onto it);
   :func:`capstan_end_speed` runs one probe (the long end's mean speed over seconds 1 to 3, after 1 s of settling)
   and :func:`capstan_slip_factor` bisects the factor at which the rope slides.
 * **incline**: :func:`incline_scene` lays a cable down (or across) the slope of a tilted box;
@@ -48,6 +49,7 @@ __all__ = [
     "PEG_RADIUS",
     "SHORT_LEG",
     "START_CLEARANCE",
+    "MAX_LIFT",
     "SETTLE_TIME",
     "MEASURE_TIME",
     "HOLD_SPEED",
@@ -64,7 +66,8 @@ LINEAR_DENSITY = 0.1  # kg/m
 PEG_RADIUS = 0.03  # m
 PEG_HEIGHT = 0.0  # m, the peg's axis; nothing below it (a rope that slides off falls freely)
 SHORT_LEG = 0.3  # m below the peg's axis
-START_CLEARANCE = 5e-4  # m between the peg and the start arc's chords (a chord cut into the peg throws the rope off)
+START_CLEARANCE = 5e-4  # m between the peg and the start arc's chords (the default: clear of the peg)
+MAX_LIFT = 0.1  # m: the highest start above the peg that capstan_scene takes (a rope dropped onto it)
 CAPSTAN_DAMPING = 2.0  # 1/s: settles the legs' swing within the first second
 ARC_POINTS = 19  # control points on the start half circle (10° apart)
 SETTLE_TIME = 1.0  # s before the end's speed is measured
@@ -122,15 +125,17 @@ class CapstanScene(Scene):
 
 
 def capstan_scene(factor: float, *, mu: float, segments_per_metre: int = 50, peg_radius: float = PEG_RADIUS,
-                  radius: float = RADIUS, damping: float = CAPSTAN_DAMPING) -> CapstanScene:
+                  radius: float = RADIUS, damping: float = CAPSTAN_DAMPING,
+                  clearance: float = START_CLEARANCE, lift: float = 0.0) -> CapstanScene:
     """A limp rope hanging over a horizontal peg (along y), legs of :data:`SHORT_LEG` and the long leg at which the
     heavy-rope ratio is ``factor`` · e^{μπ}; no pins, nothing else.
 
-    The rope starts on a half circle above the peg of radius R_c + l₀² / (8 R_c) + :data:`START_CLEARANCE`
-    (R_c = peg radius + rope radius, l₀ the segment), so that its chords start clear of the peg, and straight
-    vertical legs. Once the rope lies on the peg the start arc's excess length (its chords' length less π R_c)
-    has gone to the legs; the start legs are shorter than the design's by half of it each. (How the excess splits,
-    the chords on the wrapped arc and the contacts' penetration shift the legs by up to about 1 % of the ratio.)
+    The rope starts on a half circle above the peg of radius √((R_c + ``clearance``)² + l₀² / 4) (R_c = peg radius
+    + rope radius, l₀ the segment), so that the middles of its chords start ``clearance`` from the peg (negative:
+    the chords cut into it), and straight vertical legs, all raised by ``lift`` (the rope drops onto the peg).
+    Once the rope lies on the peg the start arc's excess length (its chords' length less π R_c) has gone to the
+    legs; the start legs are shorter than the design's by half of it each. (How the excess splits, the chords on
+    the wrapped arc and the contacts' penetration shift the legs by up to about 1 % of the ratio.)
 
     Args:
       factor: the ratio in units of the law (> 0).
@@ -139,21 +144,28 @@ def capstan_scene(factor: float, *, mu: float, segments_per_metre: int = 50, peg
         the same length).
       peg_radius, radius: metres.
       damping: the rope's damping rate in 1/s.
+      clearance: metres between the peg and the start arc's chords, in (−``radius``, ``peg_radius``]: the
+        default :data:`START_CLEARANCE` starts the rope clear of the peg, a negative one with its chords cutting
+        into it.
+      lift: metres in [0, :data:`MAX_LIFT`] by which the start shape is raised: the rope falls that far onto the
+        peg.
     """
     factor = _validate.number("factor", factor, low=0.0, low_open=True)
     mu = _validate.number("mu", mu, low=0.0)
     per_metre = _validate.integer("segments_per_metre", segments_per_metre, low=1)
     rc = _validate.number("peg_radius", peg_radius, low=0.0, low_open=True, unit="m") + _validate.number(
         "radius", radius, low=0.0, low_open=True, unit="m")
+    clearance = _validate.number("clearance", clearance, low=-radius, high=peg_radius, low_open=True, unit="m")
+    lift = _validate.number("lift", lift, low=0.0, high=MAX_LIFT, unit="m")
     long = reference.heavy_capstan_long_leg(SHORT_LEG, mu, rc, factor=factor)
     total = SHORT_LEG + long + math.pi * rc
     n = max(4, int(round(per_metre * total)))
     l0 = total / n  # the start arc is longer than π R_c: the total is kept, so the chords are l0 at most
-    start = rc + l0 * l0 / (8.0 * rc) + START_CLEARANCE
+    start = math.sqrt((rc + clearance) ** 2 + 0.25 * l0 * l0)  # the chords' middles at R_c + clearance
     chords = math.pi * start * (1.0 - l0 * l0 / (24.0 * start * start))  # the chords on the start half circle
     half_excess = 0.5 * (chords - math.pi * rc)
     short0, long0 = SHORT_LEG - half_excess, long - half_excess
-    z = PEG_HEIGHT
+    z = PEG_HEIGHT + lift
     # leg control points at twice the arc's spacing, doubling away from the arc: the spline stays straight
     step = start * math.pi / (ARC_POINTS - 1)
 
@@ -164,22 +176,23 @@ def capstan_scene(factor: float, *, mu: float, segments_per_metre: int = 50, peg
     arc = [[-start * math.cos(a), 0.0, z + start * math.sin(a)] for a in np.linspace(0.0, math.pi, ARC_POINTS)]
     right = [[start, 0.0, z - d] for d in depths(long0)]
     cable = CableSpec(left + arc + right, n, radius, LINEAR_DENSITY * total, damping=damping, friction=mu)
-    peg = Cylinder(radius=peg_radius, half_length=0.1, pos=(0.0, 0.0, z), euler=(90.0, 0.0, 0.0))
+    peg = Cylinder(radius=peg_radius, half_length=0.1, pos=(0.0, 0.0, PEG_HEIGHT), euler=(90.0, 0.0, 0.0))
     return CapstanScene(cable, obstacles=(peg,), name="capstan", mu=mu, factor=factor, short=SHORT_LEG, long=long,
-                        contact_radius=rc, peg_height=z, segments_per_metre=per_metre)
+                        contact_radius=rc, peg_height=PEG_HEIGHT, segments_per_metre=per_metre)
 
 
 def capstan_end_speed(model: str, dt: float, settings: dict, *, factor: float, mu: float,
-                      segments_per_metre: int = 50) -> float:
+                      segments_per_metre: int = 50, clearance: float = START_CLEARANCE, lift: float = 0.0) -> float:
     """One probe: the long end's mean speed in m/s over seconds :data:`SETTLE_TIME` to
-    :data:`SETTLE_TIME` + :data:`MEASURE_TIME` of :func:`capstan_scene` (``factor``, ``mu``) simulated by ``model``
-    at ``dt`` with ``settings``. Holding: below :data:`HOLD_SPEED`; sliding: above :data:`SLIDE_SPEED`; NaN when
-    the simulation diverged.
+    :data:`SETTLE_TIME` + :data:`MEASURE_TIME` of :func:`capstan_scene` (``factor``, ``mu``, and the start's
+    ``clearance`` and ``lift``) simulated by ``model`` at ``dt`` with ``settings``. Holding: below
+    :data:`HOLD_SPEED`; sliding: above :data:`SLIDE_SPEED`; NaN when the simulation diverged.
 
     Raises:
       Exception: what building the simulator or stepping it raises, but for a divergence (NaN).
     """
-    scene = capstan_scene(factor, mu=mu, segments_per_metre=segments_per_metre)
+    scene = capstan_scene(factor, mu=mu, segments_per_metre=segments_per_metre, clearance=clearance,
+                          lift=lift)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sim = Simulator(scene, model, dt=dt, **settings)

@@ -12,6 +12,22 @@ surface follows it. Meshes and other types keep the detection's half-space n₀�
 "c1, c2"), mass-weighted ([M16] Eq. 18 with α = 0): Δλₙ = −C / Σ wⱼ ∇ⱼC², Δxⱼ = wⱼ ∇ⱼC Δλₙ, ∇ᵢC = (1 − s) n,
 ∇ᵢ₊₁C = s n.
 
+**Depth at the substep's start.** Positions carry their corrections as velocity, v = (x − x₀)/h, so a depth d₀ that
+the contact point already had when the substep began (C₀ = C(x₀) < 0: a start whose chords cut into the obstacle, a
+contact that a query found late, a sideways friction correction of a chord on a curved surface) would leave the
+substep at d₀ / h, faster the finer the substep: 2.4 m/s for 0.3 mm at h = 0.125 ms, which throws a rope off a peg. A
+static obstacle therefore projects C ≥ min(0, C₀ + v_d h) with v_d = ``DEPENETRATION_SPEED`` and C₀ =
+C − n·(p − p₀) (p₀ the point at the substep's start; exact on planes and box faces, to first order in |p − p₀| on
+round shapes): it never lets the point in deeper than it was, and pushes the old depth out at v_d at most, whatever
+h (the split of a position correction from the velocity it leaves, as in Macklin et al. 2014's pre-stabilisation of
+initial overlaps). The push-out counts in the particle's normal load like any correction: the old depth of a resting
+or sliding rope is what the sweeps after the contacts left (friction's sideways corrections of chords on a curved
+surface), and its push-out is the surface's reaction to them, while a start overlap's adds at most v_d h per
+substep, for depth / v_d (``docs/measurements.md``). A moving obstacle's C₀ would hold its motion, and is left out:
+its contacts are projected whole. Where some obstacle moves, the sweep projects the static obstacles' contacts after
+the moving ones', so that a cable squeezed between a moving body and a static one leaves no depth in the static one
+(which would push it out at v_d only, and carry little of the squeeze's load).
+
 **Friction per particle.** Several segment contacts share a particle (a rope wrapped on a peg touches it with every
 chord), and the split of the normal force between neighbouring chords is statically indeterminate: a Gauss-Seidel
 sweep leaves it alternating, big and small, while each particle's total is exact. So friction acts on particles:
@@ -53,8 +69,9 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_NEGATIVE, GEOM_BOX, GEOM_CAPSULE,
-                                            GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_NEGATIVE, DEPENETRATION_SPEED, GEOM_BOX,
+                                            GEOM_CAPSULE, GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE,
+                                            Shapes)
 
 __all__ = ["shape_distance", "shapes_of", "box_face", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
            "reset_friction", "collect_impulses", "body_wrenches"]
@@ -217,19 +234,29 @@ def reset_friction(S):
 def contact_sweep(S):
     """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
     normal ``con_normal`` and ``con_offset``, ``con_mu``, obstacle row ``con_shape`` or −1, a static box's face
-    ``con_face``, multipliers ``con_lam``). Projects C ≥ 0 (module docstring) against the obstacle's shape, and adds each particle's share of
-    Δλₙ to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``, ``fric_normal``, the obstacle ``fric_ob``). A
-    held particle (w = 0) collects its share of ∇C Δλ in ``react``; a contact nearer a held particle than its
-    segment's middle is left to the pin."""
+    ``con_face``, multipliers ``con_lam``). Projects C ≥ 0 (module docstring; on a static obstacle C ≥ min(0, C₀ +
+    v_d h), C₀ from the substep's start ``x0``) against the obstacle's shape, and adds each particle's share of
+    Δλₙ to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``, ``fric_normal``, the obstacle ``fric_ob``);
+    the static obstacles' contacts come last. A held particle (w = 0) collects its share of ∇C Δλ in ``react``; a
+    contact nearer a held particle than its segment's middle is left to the pin."""
     P = S.par[0]
     radius = P.radius
-    x, w, react = S.x, S.w, S.react
+    recover = DEPENETRATION_SPEED * P.h
+    x, x0, w, react, moves = S.x, S.x0, S.w, S.react, S.shape_moves
     fric_n, fric_mu, fric_nsum, fric_normal, fric_ob, anchor_ob = (S.fric_n, S.fric_mu, S.fric_nsum, S.fric_normal,
                                                                    S.fric_ob, S.anchor_ob)
     seg, con_s, con_normal, con_offset, con_mu, con_shape, con_face, lam = (
         S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam)
     shapes = shapes_of(S)
-    for c in range(P.n_con):
+    n_con = P.n_con
+    mixed = False  # some obstacle moves: two passes, the static obstacles second (they hold when the sweep ends)
+    for r in range(moves.shape[0]):
+        mixed = mixed or moves[r]
+    for q in range(2 * n_con if mixed else n_con):
+        c = q % n_con
+        k = con_shape[c]
+        if mixed and (q < n_con) == (k >= 0 and not moves[k]):
+            continue
         i = seg[c]
         j = i + 1
         s = con_s[c]
@@ -251,7 +278,6 @@ def contact_sweep(S):
             px = a * x[i, 0] + b * x[j, 0]
             py = a * x[i, 1] + b * x[j, 1]
             pz = a * x[i, 2] + b * x[j, 2]
-        k = con_shape[c]
         if k >= 0:
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
                                               con_normal[c, 2], con_offset[c], radius, con_face[c])
@@ -260,7 +286,14 @@ def contact_sweep(S):
             cval = nx * px + ny * py + nz * pz - con_offset[c]
         if cval >= 0.0:
             continue
-        dlam = -cval * inv_wsum
+        start = 0.0  # C₀, the depth of the same point at the substep's start (a static obstacle's), C − n·(p − p₀)
+        if k >= 0 and not moves[k]:
+            start = min(cval - nx * (px - a * x0[i, 0] - b * x0[j, 0]) - ny * (py - a * x0[i, 1] - b * x0[j, 1])
+                        - nz * (pz - a * x0[i, 2] - b * x0[j, 2]), 0.0)
+        excess = cval - min(start + recover, 0.0)  # C less its target: the depth this projection removes
+        if excess >= 0.0:
+            continue
+        dlam = -excess * inv_wsum
         lam[c] += dlam
         mu = con_mu[c]
         for p, f, wp in ((i, a, wi), (j, b, wj)):
@@ -268,7 +301,7 @@ def contact_sweep(S):
                 continue
             g = f * dlam
             if wp > 0.0:
-                m = wp * f * inv_wsum * cval  # −wₚ g, with C last: a short chain from x through C to Δx
+                m = wp * f * inv_wsum * excess  # −wₚ g, with C last: a short chain from x through C to Δx
                 x[p, 0] -= m * nx
                 x[p, 1] -= m * ny
                 x[p, 2] -= m * nz

@@ -55,6 +55,10 @@ Shapes = namedtuple("Shapes", ("type", "size", "pos", "rot"))
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
 _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
+# m/s: the fastest a static obstacle pushes out a depth that its contact point already had when the substep began (a
+# start that cuts into it, or what a sweep after the contacts left): removed in one substep it would leave as a
+# velocity of depth / h, 2.4 m/s for 0.3 mm at h = 0.125 ms (contact_kernels.contact_sweep, docs/measurements.md)
+DEPENETRATION_SPEED = 0.02
 PAIRS_OFF = -1e10  # m: a pair margin no pair of geoms is closer than (switches the cable's pairs off)
 
 #: The solver's scalars, one record (``SolverState.par``, a length-1 array of this dtype).
