@@ -297,18 +297,26 @@ def _apply_end(S, e, l0, l1, l2, dq, now):
 
 
 @_inline
+def _block_update(M, a0, a1, a2, lam, k, c0, c1, c2):
+    """[M16] Eq. 18 for one vector constraint: with ``M`` its block of J W Jᵀ, (M + α̃) Δλ = −C − α̃ λ (α̃ =
+    diag(a0, a1, a2)); λ = ``lam[k]`` grows by Δλ, which is returned (3 scalars)."""
+    M[0, 0] += a0
+    M[1, 1] += a1
+    M[2, 2] += a2
+    d0, d1, d2 = _solve3(M, -c0 - a0 * lam[k, 0], -c1 - a1 * lam[k, 1], -c2 - a2 * lam[k, 2])
+    lam[k, 0] += d0
+    lam[k, 1] += d1
+    lam[k, 2] += d2
+    return d0, d1, d2
+
+
+@_inline
 def _gs_end(S, e, M, a0, a1, a2, inv_half):
     """One Gauss-Seidel update of the clamp constraint at the rod's start (e = 0) or end (e = 1)."""
     lam = S.lam_end
     c0, c1, c2 = _linearise_end(S, e, inv_half)
     _diag_end(S, e, M)
-    M[0, 0] += a0
-    M[1, 1] += a1
-    M[2, 2] += a2
-    d0, d1, d2 = _solve3(M, -c0 - a0 * lam[e, 0], -c1 - a1 * lam[e, 1], -c2 - a2 * lam[e, 2])
-    lam[e, 0] += d0
-    lam[e, 1] += d1
-    lam[e, 2] += d2
+    d0, d1, d2 = _block_update(M, a0, a1, a2, lam, e, c0, c1, c2)
     _apply_end(S, e, d0, d1, d2, S.cs_db, True)
 
 
@@ -329,26 +337,12 @@ def rod_gauss_seidel(S, h2):
     for i in range(n):
         c0, c1, c2 = _linearise_ss(S, i, inv_l0)
         _diag_ss(S, i, M, P.inv_l0sq)
-        M[0, 0] += a_ss[0]
-        M[1, 1] += a_ss[1]
-        M[2, 2] += a_ss[2]
-        d0, d1, d2 = _solve3(M, -c0 - a_ss[0] * lam_ss[i, 0], -c1 - a_ss[1] * lam_ss[i, 1],
-                             -c2 - a_ss[2] * lam_ss[i, 2])
-        lam_ss[i, 0] += d0
-        lam_ss[i, 1] += d1
-        lam_ss[i, 2] += d2
+        d0, d1, d2 = _block_update(M, a_ss[0], a_ss[1], a_ss[2], lam_ss, i, c0, c1, c2)
         _apply_ss(S, i, d0, d1, d2, S.x, S.cs_db, True, inv_l0)
         if i < n - 1:
             c0, c1, c2 = _linearise_bt(S, i, inv_l0)
             _diag_bt(S, i, M)
-            M[0, 0] += a_bt[0]
-            M[1, 1] += a_bt[1]
-            M[2, 2] += a_bt[2]
-            d0, d1, d2 = _solve3(M, -c0 - a_bt[0] * lam_bt[i, 0], -c1 - a_bt[1] * lam_bt[i, 1],
-                                 -c2 - a_bt[2] * lam_bt[i, 2])
-            lam_bt[i, 0] += d0
-            lam_bt[i, 1] += d1
-            lam_bt[i, 2] += d2
+            d0, d1, d2 = _block_update(M, a_bt[0], a_bt[1], a_bt[2], lam_bt, i, c0, c1, c2)
             _apply_bt(S, i, d0, d1, d2, S.cs_db, True)
     if _end_on(S, 1):
         _gs_end(S, 1, M, 2.0 * a_bt[0], 2.0 * a_bt[1], 2.0 * a_bt[2], 2.0 * inv_l0)
