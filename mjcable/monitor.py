@@ -95,12 +95,11 @@ class Breach:
     warning: bool = False
 
 
-def limits(scene: Scene, model: str) -> Limits:
-    """The limits of ``model`` (a catalogue name) on ``scene``'s cable (see the module docstring)."""
-    from mjcable import catalog  # the catalogue's backends import this module
-
+def limits(scene: Scene, entry) -> Limits:
+    """The limits of the model of catalogue entry ``entry`` (:class:`mjcable.catalog.ModelEntry`: whether it uses
+    ``stretch_stiffness``, from its ``ignores``) on ``scene``'s cable (see the module docstring)."""
     cable = scene.cable
-    ea = cable.stretch_stiffness if model in catalog.honouring("stretch_stiffness") else None
+    ea = None if "stretch_stiffness" in dict(entry.ignores) else cable.stretch_stiffness
     static = 0.0 if ea is None else scene.max_tension / ea  # the weight it may carry: its own and its bodies'
     return Limits(strain_warn=max(STRAIN_TOLERANCE, ELASTIC_MARGIN * static),
                   strain_fail=max(STRAIN_FAIL, 2.0 * ELASTIC_MARGIN * static),

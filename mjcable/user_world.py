@@ -33,6 +33,11 @@ import numpy as np
 
 __all__ = ["World", "load", "Depth"]
 
+# The collision bits every model gives the cable's geoms and the scene's obstacles (mjcable.mjcf.world uses them): a
+# world's geom the cable can touch has OBSTACLE_CONTYPE in its contype or CABLE_CONTYPE in its conaffinity.
+CABLE_CONTYPE = 2  # cable geoms collide with obstacles (conaffinity 1), not with each other unless asked
+OBSTACLE_CONTYPE = 1
+
 _RELATIVE_ROUND_OFF = 1e-9  # relative: a Jacobian column this small (of the largest entry, or 1) moves nothing
 
 WorldLike = Union[str, "os.PathLike[str]", mujoco.MjSpec]
@@ -140,7 +145,7 @@ class World:
                     held: Iterable[int] = ()) -> Optional["Depth"]:
         """How deep the deepest of ``points`` (n, 3) m, each a sphere of ``radius`` m, starts inside a geom of the world
         that the cable can collide with (MuJoCo's filter: ``contype`` of one against ``conaffinity`` of the other,
-        with the cable's bits from :func:`mjcable.mjcf.world.cable_geom`), at the world's start pose; ``None`` if none
+        with the cable's bits :data:`CABLE_CONTYPE`, :data:`OBSTACLE_CONTYPE`), at the world's start pose; ``None`` if none
         reaches into one. MuJoCo measures each distance (``mj_geomDistance`` against a probe sphere), after a
         bounding-sphere cull.
 
@@ -149,8 +154,6 @@ class World:
             next to a body pin, which starts inside or on the body it is fastened to).
           held: indices of points that touch nothing (pinned particles: a plug held in its socket).
         """
-        from mjcable.mjcf.world import CABLE_CONTYPE, OBSTACLE_CONTYPE  # the cable's bits (mjcf imports scene.py)
-
         m, d, probe = self._probe
         points = np.asarray(points, dtype=np.float64)
         geoms = [g for g in range(m.ngeom) if g != probe and m.geom_bodyid[g] != m.geom_bodyid[probe]

@@ -176,7 +176,7 @@ def test_a_warning_comes_once_per_check():
 def test_an_elastic_cable_may_stretch_as_its_stiffness_says():
     """E·A = 10 N under its own weight stretches by mg / EA ≈ 5 %: within what the model promises, no warning."""
     scene = mjcable.scenes.get("hang", stretch_stiffness=10.0)
-    lim = monitor.limits(scene, "xpbd")
+    lim = monitor.limits(scene, mjcable.catalog.get("xpbd"))
     assert lim.static_strain == pytest.approx(scene.cable.mass * 9.81 / 10.0, rel=1e-3)
     with warnings.catch_warnings():
         warnings.simplefilter("error", mjcable.PhysicsWarning)

@@ -109,7 +109,7 @@ class NativeBackend:
         self._added = np.zeros(n)  # kg of point masses added per particle
         # the physics monitor (mjcable.monitor): limits, rest lengths, and the pins connect equalities hold (the
         # kinematic tree's pins can't tear), with their anchor sites
-        self._limits = monitor.limits(scene, self.name)
+        self._limits = monitor.limits(scene, entry)
         self._lim = monitor.limits_record(self._limits, dt)
         self._rest = np.full(scene.cable.n_segments, scene.cable.segment_length)
         held = [k for k in range(len(scene.pins)) if self._pin_eq[k, 0] >= 0]

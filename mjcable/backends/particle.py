@@ -77,7 +77,7 @@ class ParticleBackend:
         self._user = [(c, c.resolved(n_particles)) for c in getattr(s, "constraints", ())]
         a = self.arrays = chain_arrays(scene, self.rules, s, dt)
         self._par = a.par[0]  # the parameter record (a view: reads and writes go to the state)
-        self._limits = lim = monitor.limits(scene, entry.name)
+        self._limits = lim = monitor.limits(scene, entry)
         for name, value in dict(max_distance=MAX_DISTANCE, max_speed=MAX_SPEED, strain_fail=lim.strain_fail,
                                 strain_warn=lim.strain_warn, tear=lim.tear, depth_check=True, check_where=-1,
                                 warn_where=-1, warn_step=-1).items():

@@ -30,6 +30,7 @@ from scipy.spatial.transform import Rotation
 
 from mjcable import geometry
 from mjcable.scene import BODY_PIN_REACH, GRAVITY, Box, Capsule, Cylinder, Floor, Scene, Sphere
+from mjcable.user_world import CABLE_CONTYPE, OBSTACLE_CONTYPE
 
 __all__ = [
     "new_spec",
@@ -54,8 +55,6 @@ __all__ = [
     "stiffen_obstacle_contacts",
 ]
 
-CABLE_CONTYPE = 2  # cable geoms collide with obstacles (conaffinity 1), not with each other unless asked
-OBSTACLE_CONTYPE = 1
 CAMERA = "overview"
 START_KEY = "start"  # keyframe holding the scene's start pose where a model compiles in another (straight) pose
 _TORSION_ROLL_FRICTION = (0.005, 0.0001)
