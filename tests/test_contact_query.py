@@ -108,7 +108,7 @@ def test_a_kept_query_holds_every_pair_a_step_needs_while_a_gripper_drags_the_ca
 
     path = np.concatenate([np.repeat(start[None], 300, axis=0), leg(start, edge, 200), leg(edge, end, 800),
                            np.repeat(end[None], 500, axis=0)])  # 0.6 s at rest, 2 s dragged (up to 1.2 m/s), 1 s
-    kept = queried = 0
+    kept = queried = flat = 0
     r = scene.cable.radius
     a, par = backend.arrays, backend.arrays.par[0]
     for step, target in enumerate(path):  # one step at a time, checked before each
@@ -127,5 +127,31 @@ def test_a_kept_query_holds_every_pair_a_step_needs_while_a_gripper_drags_the_ca
         over = (np.abs(x[:, 0]) < 0.6 - r) & (np.abs(x[:, 1]) < 0.4 - r)  # over or under the table's 4 cm slab
         top, bottom = mjcable.scenes.TABLE_TOP, mjcable.scenes.TABLE_TOP - 0.04
         assert not np.any((x[over, 2] < top + r - 1e-3) & (x[over, 2] > bottom - r + 1e-3))  # never inside it
+        flat += _flat_contacts_are_their_face(backend, scene)
     x = backend.positions()
     assert np.all(x[:, 2] < 0.05) and kept > 100 and queried > 50  # it reached the floor; both kinds of step ran
+    assert flat > 1000  # the flat-face contacts were checked on the table and on the floor
+
+
+def _box_distance(p, centre, half):
+    """Signed distance (m) of points ``p`` (k, 3) from an axis-aligned box (``centre``, half-sizes ``half``): the
+    textbook box SDF, written here independently of the solver's kernels."""
+    q = np.abs(p - centre) - half
+    return np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+
+
+def _flat_contacts_are_their_face(backend, scene) -> int:
+    """Every contact measured as a flat face's plane (``BOX_FACE_FLAT``) measures, at the cable's positions now, the
+    exact distance of its point from the obstacle (the table's box, or the floor's plane) less the radius: the point
+    has not left the face. Returns how many it checked."""
+    n = int(backend.arrays.par[0]["n_con"])
+    seg, frac, normal, offset, _, shape, face, _ = (a[:n] for a in kernels_layout.contact_buffers(backend.state))
+    flat = face == kernels_layout.BOX_FACE_FLAT
+    x = backend.positions()
+    p = (1.0 - frac[flat, None]) * x[seg[flat]] + frac[flat, None] * x[seg[flat] + 1]
+    planes = np.einsum("kc,kc->k", normal[flat], p) - offset[flat]
+    table = next(o for o in scene.obstacles if isinstance(o, mjcable.Box))
+    on_box = backend.arrays.shape_type[shape[flat]] == mujoco.mjtGeom.mjGEOM_BOX
+    exact = np.where(on_box, _box_distance(p, np.array(table.pos), np.array(table.size)), p[:, 2])
+    np.testing.assert_allclose(planes, exact - scene.cable.radius, atol=1e-12)
+    return int(flat.sum())

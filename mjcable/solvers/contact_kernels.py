@@ -6,7 +6,10 @@ Re-exported by :mod:`mjcable.solvers.kernels`.
 segment (i, i+1), the fraction s of its axis point p = (1 − s) xᵢ + s xᵢ₊₁, and the obstacle. In every substep and
 iteration the point is measured against the obstacle's real shape (:func:`shape_distance`: the geom's MuJoCo type,
 size and pose), C = d(p) − r ≥ 0 with r the cable's radius and n = ∇d, so that a cable sliding over a curved
-surface follows it. Meshes and other types keep the detection's half-space n₀·p ≥ n₀·q + r.
+surface follows it. Meshes and other types keep the detection's half-space n₀·p ≥ n₀·q + r. A contact that stays
+over one flat face while its query is kept (a static plane, or a static box's face with the point well inside the
+face's edges: :func:`~mjcable.solvers.query_kernels.flatten_contacts`) is measured against that face's plane, the
+same distance with one dot product.
 
 **Normal.** C ≥ 0 is projected with the segment weights (1 − s, s) of Jakobsen's segment collision ([J01],
 "c1, c2"), mass-weighted ([M16] Eq. 18 with α = 0): Δλₙ = −C / Σ wⱼ ∇ⱼC², Δxⱼ = wⱼ ∇ⱼC Δλₙ, ∇ᵢC = (1 − s) n,
@@ -40,7 +43,8 @@ obstacle it is anchored on while it presses it (else the first it presses in the
 its friction among the obstacles in proportion to their normal impulses.
 
 **Static friction with anchors** ([M20] §3.5, positional static friction; here kept across substeps and steps). A
-pressed particle has an anchor on the obstacle, stored in the obstacle's frame; it is set where the particle was
+pressed particle has an anchor on the obstacle, stored in the obstacle's frame (a static obstacle's frame is the
+world's: its anchors are kept in world coordinates); it is set where the particle was
 when the substep began the first time the particle presses. Each iteration pulls the particle's tangential offset
 from its anchor, Δx_t = (xⱼ − aⱼ) − ((xⱼ − aⱼ)·n̂) n̂, back with the impulse −Δx_t / wⱼ, as long as the
 substep's tangential impulse (friction plus the chords' sideways push) stays in Coulomb's cone, |t| ≤ μ λₙ (both
@@ -69,9 +73,9 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_NEGATIVE, DEPENETRATION_SPEED, GEOM_BOX,
-                                            GEOM_CAPSULE, GEOM_CYLINDER, GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE,
-                                            Shapes)
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_FLAT, BOX_FACE_NEGATIVE,
+                                            DEPENETRATION_SPEED, GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER,
+                                            GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
 
 __all__ = ["shape_distance", "shapes_of", "box_face", "contact_sweep", "friction_sweep", "self_contact_sweep", "update_anchors",
            "reset_friction", "collect_impulses", "body_wrenches"]
@@ -278,7 +282,7 @@ def contact_sweep(S):
             px = a * x[i, 0] + b * x[j, 0]
             py = a * x[i, 1] + b * x[j, 1]
             pz = a * x[i, 2] + b * x[j, 2]
-        if k >= 0:
+        if k >= 0 and con_face[c] != BOX_FACE_FLAT:  # (a flat face's plane is the half-space below)
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
                                               con_normal[c, 2], con_offset[c], radius, con_face[c])
         else:
@@ -358,6 +362,7 @@ def _friction_cones(S):
 def friction_sweep(S):
     """Coulomb friction of every pressed particle against its anchor (module docstring): the friction sums
     (``fric_*``) from :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,)
+    (world coordinates on a static obstacle)
     (−1: none; a new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
 
     The cone is the particle's (:func:`_friction_cones`): its normal n̂ is the mean of its pressing contacts'
@@ -368,7 +373,7 @@ def friction_sweep(S):
     grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
     outside it)."""
     _friction_cones(S)
-    x, x0, w, anchor, anchor_ob = S.x, S.x0, S.w, S.anchor, S.anchor_ob
+    x, x0, w, anchor, anchor_ob, moves = S.x, S.x0, S.w, S.anchor, S.anchor_ob, S.shape_moves
     fric_slid, fric_impulse, fric_ob = S.fric_slid, S.fric_impulse, S.fric_ob
     unit, push, cones = S.fric_unit, S.fric_push, S.fric_cone
     shapes = shapes_of(S)
@@ -379,10 +384,17 @@ def friction_sweep(S):
         k = fric_ob[p]
         nx, ny, nz = unit[p, 0], unit[p, 1], unit[p, 2]
         tcx, tcy, tcz = push[p, 0], push[p, 1], push[p, 2]
+        static = not moves[k]  # a static obstacle's anchors are kept in world coordinates, a moving one's in its frame
         if anchor_ob[p] != k:
-            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
+            if static:
+                anchor[p, 0], anchor[p, 1], anchor[p, 2] = x0[p, 0], x0[p, 1], x0[p, 2]
+            else:
+                anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
             anchor_ob[p] = k
-        ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
+        if static:
+            ax, ay, az = anchor[p, 0], anchor[p, 1], anchor[p, 2]
+        else:
+            ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
         dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
         dn = dx * nx + dy * ny + dz * nz
         inv_w = 1.0 / w[p]
@@ -416,9 +428,9 @@ def friction_sweep(S):
 @_inline
 def update_anchors(S):
     """End of a substep: drop the anchors of particles that no longer press, move those of sliding particles to
-    where they are now (in their obstacle's frame), and zero the substep's sums (:func:`reset_friction`) of the
-    particles that had contacts."""
-    x, anchor, anchor_ob = S.x, S.anchor, S.anchor_ob
+    where they are now (in their obstacle's frame; the world's for a static one), and zero the substep's sums
+    (:func:`reset_friction`) of the particles that had contacts."""
+    x, anchor, anchor_ob, moves = S.x, S.anchor, S.anchor_ob, S.shape_moves
     fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal = (S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum,
                                                                         S.fric_impulse, S.fric_normal)
     shapes = shapes_of(S)
@@ -426,8 +438,12 @@ def update_anchors(S):
         if fric_n[p] <= 0.0:
             anchor_ob[p] = -1
             continue
-        if anchor_ob[p] >= 0 and fric_slid[p]:
-            anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, anchor_ob[p], x[p, 0], x[p, 1], x[p, 2])
+        k = anchor_ob[p]
+        if k >= 0 and fric_slid[p]:
+            if moves[k]:
+                anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x[p, 0], x[p, 1], x[p, 2])
+            else:
+                anchor[p, 0], anchor[p, 1], anchor[p, 2] = x[p, 0], x[p, 1], x[p, 2]
         _zero_sums(fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, p)
 
 

@@ -61,7 +61,7 @@ from mjcable.solvers.kernels_layout import (
     RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, WARN_STRAIN, SolverState,  # noqa: F401
 )
 from mjcable.solvers.monitor_kernels import contact_depth, step_check
-from mjcable.solvers.query_kernels import query_holds, query_obstacles, self_contacts
+from mjcable.solvers.query_kernels import flatten_contacts, query_holds, query_obstacles, self_contacts
 
 __all__ = ["SolverState", "run_steps", "run_phase", "substep", "begin_substep", "iterate", "end_substep",
            "is_plain", "plain_substep", "step_margin", "touches_obstacles", "xpbd_multiplier", "stretch_step",
@@ -416,23 +416,22 @@ def _step_contacts(S, given):
     n_con = n_self = 0
     if obstacles or P.self_collision:  # (nothing to measure on a free cable)
         margin = step_margin(S.v, P.contact_margin, P.dt, P.fall)
-        if obstacles and touches_obstacles(x, margin + P.radius, S.box_lo, S.box_hi, S.plane_n, S.plane_p):
-            wide = margin + P.query_slack if P.keep_queries else margin
-            fresh = True
-            if given:
+        if obstacles and not given and P.keep_queries and query_holds(x, margin, S.query_x, P.query_margin):
+            n_con = P.n_con  # the last query's contacts, still in the buffers (they hold every pair the step needs)
+        elif obstacles and touches_obstacles(x, margin + P.radius, S.box_lo, S.box_hi, S.plane_n, S.plane_p):
+            if given:  # Python queried them at par.margin
                 n_con = P.n_con
                 wide = P.margin
-            elif P.keep_queries and query_holds(x, margin, S.query_x, P.query_margin):
-                n_con = P.n_con  # the last query's contacts, still in the buffers
-                fresh = False
             else:
+                wide = margin + P.query_slack if P.keep_queries else margin
                 n_con = query_obstacles(S, wide) if P.query == QUERY_COMPILED else -1
                 if n_con < 0:  # the C API's query is unavailable (or its contact array misplaced): Python's
                     P.query = QUERY_PYTHON
                     P.margin = wide
                     return False
                 P.queries += 1
-            if P.keep_queries and fresh:  # a new query: where it was taken, and its margin
+            flatten_contacts(S, n_con, 2.0 * wide)  # contacts that stay over a flat face while the query is kept
+            if P.keep_queries:  # a new query: where it was taken, and its margin
                 S.query_x[:, :] = x
                 P.query_margin = wide
         else:

@@ -47,8 +47,10 @@ WARN_STRAIN, WARN_DEPTH = 7, 8
 PHASE_BEGIN, PHASE_ITERATE, PHASE_END, PHASE_HOST_BEFORE, PHASE_HOST_AFTER = 0, 1, 2, 3, 4
 # MuJoCo's geom type codes (mujoco.mjtGeom) that the contact kernels measure exactly.
 GEOM_PLANE, GEOM_SPHERE, GEOM_CAPSULE, GEOM_ELLIPSOID, GEOM_CYLINDER, GEOM_BOX = 0, 2, 3, 4, 5, 6
-# A box's faces (SolverState.con_face): +x, +y, +z, −x, −y, −z in the box's frame (axis = face % 3).
-BOX_FACE_NONE, BOX_FACE_NEGATIVE = -1, 3
+# A box's faces (SolverState.con_face): +x, +y, +z, −x, −y, −z in the box's frame (axis = face % 3); FLAT: a contact
+# whose point stays over one face of a static box, or on a static plane, while its query is kept: its con_normal and
+# con_offset are that face's plane (query_kernels.flatten_contacts).
+BOX_FACE_NONE, BOX_FACE_NEGATIVE, BOX_FACE_FLAT = -1, 3, -2
 #: The obstacle shapes as one argument of the shape kernels (:func:`mjcable.solvers.contact_kernels.shape_distance`):
 #: the state's ``shape_type`` (B,), ``shape_size`` (B, 3) m, ``shape_pos`` (B, 3) m, ``shape_rot`` (B, 3, 3).
 Shapes = namedtuple("Shapes", ("type", "size", "pos", "rot"))
@@ -159,7 +161,7 @@ FIELDS = (
     # the particle's friction cone, from the sums (contact_kernels.friction_sweep's first pass)
     ("fric_unit", _F2, "(N, 3) its unit normal n̂"), ("fric_push", _F2, "(N, 3) kg·m the sums' tangential part"),
     ("fric_cone", _F1, "(N,) kg·m the cone's radius μ λₙ (−1: no friction this substep)"),
-    ("anchor", _F2, "(N, 3) m friction anchors in their obstacle's frame"),
+    ("anchor", _F2, "(N, 3) m friction anchors in their obstacle's frame (the world's for a static one)"),
     ("anchor_ob", _I1, "(N,) the anchors' obstacle rows (−1: none)"),
     # obstacle contacts (C: the buffers' capacity, par.n_con in use; grown together by query_kernels.reserve_contacts)
     ("con_seg", _I1, "(C,) the contact's segment"), ("con_s", _F1, "(C,) fraction s of its axis point on the segment"),

@@ -88,20 +88,21 @@ def contact_depth(S):
     P = S.par[0]
     x, radius = S.x, P.radius
     shapes = shapes_of(S)
+    con_seg, con_s, con_normal, con_offset, con_shape, con_face = (S.con_seg, S.con_s, S.con_normal, S.con_offset,
+                                                                   S.con_shape, S.con_face)
     deepest, seg = 0.0, -1
     for c in range(P.n_con):
-        i, s = S.con_seg[c], S.con_s[c]
+        i, s = con_seg[c], con_s[c]
         px = (1.0 - s) * x[i, 0] + s * x[i + 1, 0]
         py = (1.0 - s) * x[i, 1] + s * x[i + 1, 1]
         pz = (1.0 - s) * x[i, 2] + s * x[i + 1, 2]
-        n0x, n0y, n0z = S.con_normal[c, 0], S.con_normal[c, 1], S.con_normal[c, 2]
-        gap = n0x * px + n0y * py + n0z * pz - S.con_offset[c]  # the detection's half-space
+        n0x, n0y, n0z = con_normal[c, 0], con_normal[c, 1], con_normal[c, 2]
+        gap = n0x * px + n0y * py + n0z * pz - con_offset[c]  # the detection's half-space
         if gap >= -radius:  # a convex obstacle lies inside its tangent half-space: not deep (the usual case)
             continue
-        row = S.con_shape[c]
+        row = con_shape[c]
         if row >= 0:
-            gap, _, _, _ = shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, S.con_offset[c], radius,
-                                          S.con_face[c])
+            gap, _, _, _ = shape_distance(px, py, pz, shapes, row, n0x, n0y, n0z, con_offset[c], radius, con_face[c])
         depth = -gap  # how far the cable's surface reaches into the obstacle, m
         if depth > radius and depth > deepest:
             deepest, seg = depth, i

@@ -18,6 +18,8 @@ found farther than needed does nothing while it does not press. The step loop qu
 for as long as it stays within the slack of where it was. A kept contact keeps its point on the segment and its
 normal from the query, which go stale as the cable moves: the slack also bounds that (so it is microns, not
 millimetres: the setting's comment). Not for moving obstacles or a user world: their queries are never kept.
+A fresh query marks its contacts that stay over one flat face while it is kept (:func:`flatten_contacts`): their
+point moves less than m_q, so one found more than that inside a static box's face never leaves the face's plane.
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -34,7 +36,7 @@ from numba.extending import intrinsic
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
 from mjcable.solvers.contact_kernels import box_face
-from mjcable.solvers.kernels_layout import BOX_FACE_NONE, GEOM_BOX
+from mjcable.solvers.kernels_layout import BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_NONE, GEOM_BOX, GEOM_PLANE
 
 __all__ = ["find_self_contacts", "self_contacts", "query_holds", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
            "refresh_moving", "proxy_poses", "segment_closest"]
@@ -166,6 +168,46 @@ def _take_contact(S, g0, g1, dist, pos, frame, at_particle, count):
     static_box = row >= 0 and S.shape_type[row] == GEOM_BOX and not S.shape_moves[row]
     S.con_face[count] = box_face(S.shape_rot, row, nx, ny, nz) if static_box else BOX_FACE_NONE
     return count + 1
+
+
+@_inline
+def flatten_contacts(S, n_con, inset):
+    """Mark the state's first ``n_con`` obstacle contacts that stay over one flat face while their query is kept
+    (``con_face`` = ``BOX_FACE_FLAT``, ``con_normal`` and ``con_offset`` that face's plane n·p = n·pos + h + r):
+    every contact with a static plane, and a contact with a static box whose point lies over its face (the one
+    ``con_face`` names) at least ``inset`` m inside the face's edges. Over the face, the box's distance is the face
+    plane's (:func:`~mjcable.solvers.contact_kernels.shape_distance`), and a kept query's point moves less than its
+    margin m_q (module docstring): with ``inset`` ≥ m_q the point never leaves the face while the contact lives, and
+    each sweep measures it with one dot product instead of the box's frame."""
+    x, radius = S.x, S.par[0].radius
+    typ, size, pos, rot, moves = S.shape_type, S.shape_size, S.shape_pos, S.shape_rot, S.shape_moves
+    seg, frac, normal, offset, shape, face = S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_shape, S.con_face
+    for c in range(n_con):
+        k = shape[c]
+        if k < 0 or moves[k]:
+            continue
+        if typ[k] == GEOM_PLANE:
+            axis, sign, half = 2, 1.0, 0.0
+        elif typ[k] == GEOM_BOX and face[c] >= 0:
+            axis = face[c] % BOX_FACE_NEGATIVE
+            sign = -1.0 if face[c] >= BOX_FACE_NEGATIVE else 1.0
+            half = size[k, axis]
+            i, s = seg[c], frac[c]
+            inside = True
+            for e in range(3):  # the point's coordinate along each edge direction of the face, against the edge
+                if e != axis:
+                    q = 0.0
+                    for comp in range(3):
+                        q += rot[k, comp, e] * ((1.0 - s) * x[i, comp] + s * x[i + 1, comp] - pos[k, comp])
+                    inside = inside and abs(q) <= size[k, e] - inset
+            if not inside:
+                continue
+        else:
+            continue
+        nx, ny, nz = sign * rot[k, 0, axis], sign * rot[k, 1, axis], sign * rot[k, 2, axis]
+        normal[c, 0], normal[c, 1], normal[c, 2] = nx, ny, nz
+        offset[c] = nx * pos[k, 0] + ny * pos[k, 1] + nz * pos[k, 2] + half + radius
+        face[c] = BOX_FACE_FLAT
 
 
 @_jit
