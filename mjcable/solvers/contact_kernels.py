@@ -257,7 +257,7 @@ def contact_sweep(S):
     for r in range(moves.shape[0]):
         mixed = mixed or moves[r]
     for q in range(2 * n_con if mixed else n_con):
-        c = q % n_con
+        c = q if q < n_con else q - n_con
         k = con_shape[c]
         if mixed and (q < n_con) == (k >= 0 and not moves[k]):
             continue
