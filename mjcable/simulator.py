@@ -183,7 +183,8 @@ class Simulator:
     @property
     def frames(self) -> np.ndarray:
         """``(n_segments, 4)`` the segments' material frames, unit quaternions (w, x, y, z) rotating each segment's
-        body axes (d₁, d₂, d₃; d₃ along the segment) into the world, for models that have them (``cosserat``).
+        body axes (d₁, d₂, d₃; d₃ along the segment) into the world, for models that have them (``cosserat``;
+        ``joints`` and ``composite``: their capsule bodies' frames, x along the segment turned to d₃).
 
         Raises:
           ValueError: the model has no material frames (its message names the model)."""

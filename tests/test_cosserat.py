@@ -196,3 +196,25 @@ def test_the_energy_is_the_rods_torsion_and_bending():
     radius = 2 * L / math.pi
     assert e.bending == pytest.approx(0.5 * cable.bending_stiffness * L / radius**2, rel=0.01)
     assert e.twist < 1e-3 * e.bending
+
+
+@pytest.mark.parametrize("model", ["cosserat", "joints", pytest.param("composite", marks=pytest.mark.composite)])
+def test_every_model_with_frames_reports_them_along_its_segments(model):
+    """``Simulator.frames`` of the ``hang`` cable, pinned at both ends, after it swung from its start curve towards
+    its catenary (0.3 s): each frame's d₃ runs along its segment as the positions give it, and a cable that nothing
+    twisted has no twist between neighbouring frames (the d₃ part of their relative rotation, [KS16] Eq. 32, below 1e-6 rad per
+    segment); springs and flexrod say they have none."""
+    scene = mjcable.scenes.get("hang", n_segments=12)
+    sim = mjcable.Simulator(scene, model)
+    sim.step(0.3)
+    q, x = sim.frames, sim.positions
+    w, a, b, c = q.T
+    d3 = np.stack([2 * (a * c + w * b), 2 * (b * c - w * a), 1 - 2 * (a * a + b * b)], axis=1)
+    t = np.diff(x, axis=0)
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    np.testing.assert_allclose(np.einsum("ij,ij->i", d3, t), 1.0, atol=1e-9)
+    rel = quat_mul(q[:-1] * [1, -1, -1, -1], q[1:])
+    assert np.abs(2.0 * np.arctan2(rel[:, 3], rel[:, 0])).max() < 1e-6
+    for other in ("springs", "flexrod"):
+        with pytest.raises(ValueError, match=f"frames: model '{other}' has no material frames"):
+            mjcable.Simulator(scene, other).frames

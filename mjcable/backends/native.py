@@ -30,6 +30,7 @@ from mjcable.mjcf import data, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
+from mjcable.solvers.state import material_frames
 
 __all__ = ["NativeBackend", "spec_builder", "DIVERGENCE_WARNINGS"]
 
@@ -77,6 +78,7 @@ class NativeBackend:
 
     def __init__(self, scene: Scene, entry, dt: float, settings: NativeSettings):
         self.scene, self.name, self.dt, self.settings = scene, entry.name, dt, settings
+        self._has_frames = entry.frames
         self.substeps = settings.substeps
         try:
             self.mj_model = entry.build(scene, settings, dt).compile()
@@ -336,8 +338,10 @@ class NativeBackend:
         return self.mj_data.mocap_pos[self._gripper_mocap].copy()
 
     def frames(self) -> np.ndarray:
-        raise ValueError(f"frames: model {self.name!r} reports no material frames (models with frames: cosserat; "
-                         "the body frames of joints and composite are not reported yet)")
+        if not self._has_frames:
+            raise ValueError(f"frames: model {self.name!r} has no material frames (its cable is point masses, no "
+                             "segment bodies); models with frames: cosserat, joints, composite")
+        return material_frames(self.mj_data.xquat[self._site_body[:-1]])  # segment i's body holds particle i
 
     def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
         if orientation is not None:

@@ -347,7 +347,7 @@ class ParticleBackend:
         """``(n_segments, 4)`` the segments' material frames (w, x, y, z), body to world: d₃ along the segment."""
         if not self.arrays.q.shape[0]:
             raise ValueError(f"frames: model {self.name!r} has no material frames (its particles carry positions "
-                             "only); models with frames: cosserat")
+                             "only); models with frames: cosserat, joints, composite")
         return self.arrays.q.copy()
 
     def add_point_mass(self, index: int, mass: float) -> None:

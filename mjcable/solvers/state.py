@@ -22,7 +22,7 @@ from mjcable.scene import Scene
 from mjcable.solvers import kernels_layout as layout
 from mjcable.solvers.settings import ParticleSettings
 
-__all__ = ["Rules", "StateArrays", "chain_arrays", "quat_mul", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
+__all__ = ["Rules", "StateArrays", "chain_arrays", "quat_mul", "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
 
 ORDER_CODES = {"gauss-seidel": layout.ORDER_GAUSS_SEIDEL, "jacobi": layout.ORDER_JACOBI,
                "direct": layout.ORDER_DIRECT}
@@ -237,12 +237,19 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                            aw * bv + bw * av + np.cross(av, bv)], axis=-1)
 
 
+def material_frames(body_quats: np.ndarray) -> np.ndarray:
+    """``(n, 4)`` material frames (w, x, y, z; d₃ along the segment) of segment bodies whose x axis runs along their
+    segment, from the bodies' orientations ``(n, 4)`` (w, x, y, z): the frames of ``joints``' and ``composite``'s
+    capsule bodies, and of :func:`start_frames`."""
+    return quat_mul(body_quats, _Z_TO_X)
+
+
 def start_frames(particles: np.ndarray) -> np.ndarray:
     """``(n, 4)`` material frames (w, x, y, z) of a polyline's segments: d₃ along each segment, transported along the
     curve without twist (:func:`mjcable.mjcf.joints.segment_frames`)."""
     from mjcable.mjcf.joints import segment_frames  # (the MjSpec side; imported here only)
 
-    return quat_mul(segment_frames(particles), _Z_TO_X)
+    return material_frames(segment_frames(particles))
 
 
 def darboux(frames: np.ndarray, segment_length: float) -> np.ndarray:
