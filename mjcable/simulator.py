@@ -318,7 +318,7 @@ class Simulator:
         rows, none = self._no_rows
         self._run(self._count(seconds), rows, none, none)
 
-    def step_along(self, path, *, pins=None, until_release: bool = False) -> int:
+    def step_along(self, path, *, pins=None, orientations=None, until_release: bool = False) -> int:
         """Take one step of ``dt`` per row of ``path``, the grippers moved to that row before the step.
 
         Step ``i`` is :meth:`move_gripper` of each gripper whose ``path[i]`` entry differs from its commanded position
@@ -330,6 +330,10 @@ class Simulator:
           path: ``(steps, len(pins), 3)`` gripper positions in metres, world frame, finite; ``steps`` >= 0.
           pins: the gripper pins (indices into ``scene.pins``) of ``path``'s columns, distinct; default
             ``scene.grippers``.
+          orientations: ``(steps, len(pins), 4)`` unit quaternions (w, x, y, z), each gripper's turn from its start
+            orientation at that row (see :meth:`move_gripper`: clamped grippers of a model with frames); step ``i``
+            is then :meth:`move_gripper` of every gripper with ``path[i]`` and ``orientations[i]``, and one
+            :meth:`step`.
           until_release: stop after the first step in which a socket lets go (a caller whose path respects the
             socket's hold, e.g. a tether to it, recomputes the rest of it).
 
@@ -337,7 +341,8 @@ class Simulator:
           The number of steps taken: ``steps``, or fewer if ``until_release`` stopped it.
 
         Raises:
-          ValueError: ``pins`` not distinct gripper pins, or ``path`` not of that shape or not finite.
+          ValueError: ``pins`` not distinct gripper pins, ``path`` not of that shape or not finite, or
+            ``orientations`` not of its shape, not unit quaternions, or given to a model or pin that can't turn.
           SimulationDivergedError: NaN, runaway state or a MuJoCo warning (at the step it happened).
 
         Example::
@@ -357,7 +362,35 @@ class Simulator:
         if not np.isfinite(targets).all():
             raise ValueError(f"path must be finite, got {path!r}")
         rows, none = self._no_rows
-        return self._run(len(targets), rows, none, none, (pins, targets), bool(until_release))
+        if orientations is None:
+            return self._run(len(targets), rows, none, none, (pins, targets), bool(until_release))
+        turns = self._turns(orientations, targets.shape[:2])
+        for i in range(len(targets)):  # (a model or pin that can't turn raises at the first row, before a step)
+            released = self.released
+            for g, k in enumerate(pins):
+                self._backend.move_gripper(int(k), targets[i, g], turns[i, g])
+            self.step()
+            if until_release and self.released != released:
+                return i + 1
+        return len(targets)
+
+    @staticmethod
+    def _turns(orientations, shape: tuple) -> np.ndarray:
+        """``orientations`` as ``(steps, G, 4)`` unit quaternions (normalised), for a path of ``shape`` (steps, G).
+
+        Raises:
+          ValueError: not of that shape, not finite, or a row's norm off 1 by more than 1e-6."""
+        try:
+            turns = np.array(orientations, dtype=np.float64)
+        except (TypeError, ValueError):
+            turns = None
+        if turns is None or turns.shape != (*shape, 4):
+            raise ValueError(f"orientations must be an array of shape {(*shape, 4)} (a unit quaternion (w, x, y, z) "
+                             f"per step and gripper), got {orientations!r}")
+        norms = np.linalg.norm(turns, axis=-1)
+        if not np.isfinite(turns).all() or np.any(np.abs(norms - 1.0) > 1e-6):
+            raise ValueError(f"orientations must be finite unit quaternions (norm 1 within 1e-6), got {orientations!r}")
+        return turns / norms[..., None]
 
     def _path_pins(self, pins) -> np.ndarray:
         """``pins`` as a (G,) int64 array of distinct gripper pins (``None``: ``scene.grippers``).

@@ -218,3 +218,29 @@ def test_every_model_with_frames_reports_them_along_its_segments(model):
     for other in ("springs", "flexrod"):
         with pytest.raises(ValueError, match=f"frames: model '{other}' has no material frames"):
             mjcable.Simulator(scene, other).frames
+
+
+def test_step_along_turns_a_clamped_gripper_as_move_gripper_does():
+    """A path of orientations (the gripper turned 0.3 rad about the rod's axis over 0.2 s) through ``step_along``
+    gives the state that ``move_gripper`` + ``step`` per row gives, and the rod then holds the torsion torque
+    C φ / L (1 %); bad orientations and models without frames raise ``ValueError``."""
+    cable = CableSpec([START, START + [0.2, 0, 0]], 8, RADIUS, 0.05, young=YOUNG, damping=30.0)
+    along, by_step = (mjcable.Simulator(_both_clamped(cable), "cosserat") for _ in range(2))
+    end = along.gripper_positions[0]
+    turns = np.array([_turn([1, 0, 0], angle) for angle in np.linspace(0.0, 0.3, 101)[1:]])
+    assert along.step_along(np.tile(end, (100, 1, 1)), pins=[1], orientations=turns[:, None]) == 100
+    for q in turns:
+        by_step.move_gripper(1, end, q)
+        by_step.step()
+    np.testing.assert_array_equal(along.positions, by_step.positions)
+    np.testing.assert_array_equal(along.frames, by_step.frames)
+    along.step(0.5)
+    assert along.pin_torques[1, 0] == pytest.approx(cable.torsion_stiffness * 0.3 / 0.2, rel=0.01)
+    with pytest.raises(ValueError, match=r"orientations must be an array of shape \(3, 1, 4\)"):
+        along.step_along(np.tile(end, (3, 1, 1)), pins=[1], orientations=turns[:3])
+    with pytest.raises(ValueError, match="orientations must be finite unit quaternions"):
+        along.step_along(np.tile(end, (3, 1, 1)), pins=[1], orientations=2 * turns[:3, None])
+    xpbd = mjcable.Simulator(_both_clamped(cable), "xpbd")
+    with pytest.raises(ValueError, match="orientation: model 'xpbd'"):
+        xpbd.step_along(np.tile(end, (3, 1, 1)), pins=[1], orientations=turns[:3, None])
+    assert xpbd.steps == 0
