@@ -65,6 +65,7 @@ class ModelEntry:
       twist: the model has a torsional stiffness of its own (G·J, from ``CableSpec.shear_modulus``).
       rest_shapes: the ``CableSpec.rest_shape`` values it honours.
       frames: it has material frames (:attr:`mjcable.Simulator.frames`, a gripper's ``orientation``).
+      sections: it bends anisotropically (``CableSpec.section`` with unequal semi-axes).
     """
 
     name: str
@@ -79,6 +80,7 @@ class ModelEntry:
     twist: bool = False
     rest_shapes: tuple = ("straight",)
     frames: bool = False
+    sections: bool = False
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
@@ -203,11 +205,11 @@ def check_substep(dt: float, settings) -> None:
 
 
 def check_scene(scene: Scene, model: str) -> None:
-    """What model ``model`` can't honour of ``scene``'s cable: a ``rest_shape`` it has no means for is a
-    ``ValueError``; a ``shear_modulus`` given to a model without a twist stiffness of its own a warning.
+    """What model ``model`` can't honour of ``scene``'s cable: a ``rest_shape`` it has no means for, or an
+    anisotropic ``section`` for a model that bends isotropically, is a ``ValueError``; a ``shear_modulus`` given to a model without a twist stiffness of its own a warning.
 
     Raises:
-      ValueError: naming ``rest_shape``, its value, the values the model takes and the models that take it.
+      ValueError: naming ``rest_shape`` or ``section``, its value, what the model takes and the models that take it.
     """
     entry = get(model)
     cable = scene.cable
@@ -215,6 +217,10 @@ def check_scene(scene: Scene, model: str) -> None:
         takers = tuple(n for n, e in _REGISTRY.items() if cable.rest_shape in e.rest_shapes)
         raise ValueError(f"rest_shape must be one of {entry.rest_shapes} for model {model!r}, got "
                          f"{cable.rest_shape!r} (models with that rest shape: {takers})")
+    if cable.anisotropic and not entry.sections:
+        raise ValueError(f"section must be circular (a = b) for model {model!r}, which bends isotropically, got "
+                         f"section={cable.section!r} (models with anisotropic sections: "
+                         f"{tuple(n for n, e in _REGISTRY.items() if e.sections)})")
     if cable.shear_modulus is not None and not entry.twist:
         warnings.warn(f"model {model!r} has no torsional stiffness of its own: CableSpec.shear_modulus = "
                       f"{cable.shear_modulus:g} Pa is not used (models with twist: "
@@ -270,5 +276,6 @@ for _module, _settings, _summary in (
                         ignores=getattr(_module, "IGNORES", {})))
 register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
                     backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
+                    sections=True,
                     ignores=getattr(cosserat, "IGNORES", {}),
                     summary="XPBD Cosserat rod: material frames, twist, curved rest shapes, direct solve"))

@@ -90,6 +90,13 @@ class CableSpec:
       rest_shape: ``"straight"`` (default: the unstressed cable is straight) or ``"start"`` (the start curve, with
         its twist-free frames, is the unstressed shape: a permanently bent cable); only models with a curved rest
         shape (``cosserat``) take ``"start"``, the others raise a ``ValueError``.
+      section: ``(a, b)``, the semi-axes in metres (> 0) of an elliptic cross-section, ``a`` along the material
+        frame's d₁ and ``b`` along d₂ (a flat cable: E·I₁ = E π a b³ / 4 about d₁, E·I₂ = E π a³ b / 4 about d₂,
+        G·J with J = π a³ b³ / (a² + b²), A = π a b); ``None`` (default): the circle of ``radius``. ``radius``
+        stays the contact radius. Only models with anisotropic bending (``cosserat``) take a section with a ≠ b;
+        the others raise a ``ValueError``.
+      section_axis: ``(3,)`` the direction of d₁ (the ``a`` semi-axis) at the cable's start, taken perpendicular
+        to the first segment (and carried along the cable without twist); ``None``: the twist-free frames' own.
 
     Raises:
       ValueError: a parameter outside its range, or a curve that cannot be resampled into ``n_segments`` equal
@@ -107,12 +114,27 @@ class CableSpec:
     kind: str = dataclasses.field(default="centripetal", kw_only=True)
     shear_modulus: Optional[float] = dataclasses.field(default=None, kw_only=True)
     rest_shape: str = dataclasses.field(default="straight", kw_only=True)
+    section: Optional[tuple] = dataclasses.field(default=None, kw_only=True)
+    section_axis: Optional[tuple] = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self):
         curve = spline.CatmullRom(self.points, kind=self.kind)  # validates points and kind
         _set(self, "shear_modulus", _validate.optional_number("shear_modulus", self.shear_modulus, low=0.0,
                                                                low_open=True, unit="Pa"))
         _validate.choice("rest_shape", self.rest_shape, REST_SHAPES)
+        if self.section is not None:
+            try:
+                a, b = self.section
+            except (TypeError, ValueError):
+                raise ValueError(f"section must be (a, b), two semi-axes in metres (> 0), or None, got "
+                                 f"{self.section!r}") from None
+            _set(self, "section", (_validate.number("section[0]", a, low=0.0, low_open=True, unit="m"),
+                                   _validate.number("section[1]", b, low=0.0, low_open=True, unit="m")))
+        if self.section_axis is not None:
+            axis = _validate.vec3("section_axis", self.section_axis)
+            if math.hypot(*axis) == 0.0:
+                raise ValueError(f"section_axis must be a non-zero direction (3 numbers), got {self.section_axis!r}")
+            _set(self, "section_axis", axis)
         _set(self, "points", tuple(tuple(float(x) for x in p) for p in curve.points))
         _set(self, "n_segments", _validate.integer("n_segments", self.n_segments, low=1))
         if self.n_segments > MAX_SEGMENTS:
@@ -167,14 +189,36 @@ class CableSpec:
         return self.segment_length * self.n_segments
 
     @property
+    def semi_axes(self) -> tuple:
+        """``(a, b)`` in metres: the cross-section's semi-axes along d₁ and d₂ (``section``, or the circle's)."""
+        return self.section if self.section is not None else (self.radius, self.radius)
+
+    @property
+    def anisotropic(self) -> bool:
+        """Whether the cross-section bends unequally about d₁ and d₂ (a ``section`` with a ≠ b)."""
+        a, b = self.semi_axes
+        return a != b
+
+    @property
     def area(self) -> float:
-        """Cross-section area π r² in m²."""
-        return math.pi * self.radius**2
+        """Cross-section area π a b in m² (π r² for a circle)."""
+        if self.section is None:
+            return math.pi * self.radius**2
+        a, b = self.section
+        return math.pi * a * b
+
+    @property
+    def second_moments(self) -> tuple:
+        """``(I₁, I₂)`` in m⁴, the second moments of area about d₁ and d₂: (π a b³ / 4, π a³ b / 4)."""
+        a, b = self.semi_axes
+        return (math.pi * a * b**3 / 4.0, math.pi * a**3 * b / 4.0)
 
     @property
     def second_moment(self) -> float:
-        """Second moment of area I = π r⁴ / 4 in m⁴."""
-        return math.pi * self.radius**4 / 4.0
+        """Second moment of area I = π r⁴ / 4 in m⁴ (of an elliptic section: the mean of I₁ and I₂)."""
+        if self.section is None:
+            return math.pi * self.radius**4 / 4.0
+        return 0.5 * sum(self.second_moments)
 
     @property
     def bending_stiffness(self) -> float:
@@ -182,9 +226,18 @@ class CableSpec:
         return self.young * self.second_moment
 
     @property
+    def bending_stiffnesses(self) -> tuple:
+        """``(E·I₁, E·I₂)`` in N·m², about d₁ and d₂."""
+        return tuple(self.young * i for i in self.second_moments)
+
+    @property
     def polar_moment(self) -> float:
-        """Polar second moment of area J = π r⁴ / 2 in m⁴."""
-        return math.pi * self.radius**4 / 2.0
+        """Torsion constant J in m⁴: π r⁴ / 2 (the polar second moment) for a circle, π a³ b³ / (a² + b²) for an
+        ellipse (Saint-Venant)."""
+        if self.section is None:
+            return math.pi * self.radius**4 / 2.0
+        a, b = self.section
+        return math.pi * a**3 * b**3 / (a * a + b * b)
 
     @property
     def shear(self) -> float:

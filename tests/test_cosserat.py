@@ -244,3 +244,37 @@ def test_step_along_turns_a_clamped_gripper_as_move_gripper_does():
     with pytest.raises(ValueError, match="orientation: model 'xpbd'"):
         xpbd.step_along(np.tile(end, (3, 1, 1)), pins=[1], orientations=turns[:3, None])
     assert xpbd.steps == 0
+
+
+@pytest.mark.parametrize("axis, weak", [((0, 1, 0), True), ((0, 0, 1), False)], ids=["wide-face-down", "on-edge"])
+def test_a_flat_cable_bends_with_the_axis_it_is_turned_to(axis, weak):
+    """A flat cantilever (elliptic section 4 × 2 mm semi-axes, ``section_axis`` the wide semi-axis' direction):
+    lying on its wide face it bends about the weak axis (E·I₁ = E π a b³ / 4, q L³ / E I = 1), on edge about the
+    strong one (E·I₂ = E π a³ b / 4, four times stiffer); the tip within 2 % of the heavy elastica's for that E·I,
+    and no sideways drift (< 0.1 mm)."""
+    mass, a, b = 0.1, 0.004, 0.002
+    q = mass * G / L
+    weak_ei = q * L**3  # q L³ / E I₁ = 1
+    young = weak_ei / (math.pi * a * b**3 / 4)
+    ei = weak_ei if weak else young * math.pi * a**3 * b / 4
+    damping = 2 * 3.52 * math.sqrt(ei / (mass / L * L**4))  # about critical for the first mode
+    cable = CableSpec([[0, 0, 1], [L, 0, 1]], 20, a, mass, young=young, damping=damping, section=(a, b),
+                      section_axis=axis)
+    sim = mjcable.Simulator(Scene(cable, pins=(Pin(0, clamp=True),)), "cosserat")
+    sim.step(4.0)
+    assert 1.0 - sim.positions[-1, 2] == pytest.approx(reference.cantilever(L, q, ei).tip_deflection, rel=0.02)
+    assert abs(sim.positions[-1, 1]) < 1e-4
+    with pytest.raises(ValueError, match=r"section must be circular \(a = b\) for model 'xpbd'"):
+        mjcable.Simulator(Scene(cable, pins=(Pin(0, clamp=True),)), "xpbd")
+
+
+def test_a_bad_section_is_named():
+    with pytest.raises(ValueError, match=r"section\[1\] must be"):
+        CableSpec([[0, 0, 1], [L, 0, 1]], 4, RADIUS, 0.05, section=(0.004, 0.0))
+    with pytest.raises(ValueError, match="section must be \\(a, b\\)"):
+        CableSpec([[0, 0, 1], [L, 0, 1]], 4, RADIUS, 0.05, section=0.004)
+    with pytest.raises(ValueError, match="section_axis must be a non-zero direction"):
+        CableSpec([[0, 0, 1], [L, 0, 1]], 4, RADIUS, 0.05, section_axis=(0, 0, 0))
+    along = CableSpec([[0, 0, 1], [L, 0, 1]], 4, RADIUS, 0.05, section=(0.004, 0.002), section_axis=(1, 0, 0))
+    with pytest.raises(ValueError, match="section_axis must point across the cable's first segment"):
+        mjcable.Simulator(Scene(along), "cosserat")

@@ -9,10 +9,12 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
 * stretch–shear of each segment: α = (1/(G·A l₀), 1/(G·A l₀), 1/(E·A l₀)), the stretch row 0 for an inextensible
   cable (``stretch_stiffness=None``), the shear rows 0 for a cable without G (E = 0: its frames follow the tangent,
   or the segment could grow across its frame's axis);
-* bend–twist between neighbouring segments: α = (1/(E·I l₀), 1/(E·I l₀), 1/(G·J l₀)); a rod without bending
+* bend–twist between neighbouring segments: α = (1/(E·I₁ l₀), 1/(E·I₂ l₀), 1/(G·J l₀)) (I₁ = I₂ = I for a round
+  cable; a flat one's ``CableSpec.section`` gives I₁ about d₁ and I₂ about d₂); a rod without bending
   stiffness (E = 0) has none of these rows' stiffness (α = ∞ is taken as a free joint: the rows are left at a
   compliance of 1/(ε l₀) with ε = ``_LIMP`` N·m²);
-* G is the cable's ``shear_modulus``, or E / (2 (1 + ν)), ν = 0.5; A = π r², I = π r⁴ / 4, J = π r⁴ / 2;
+* G is the cable's ``shear_modulus``, or E / (2 (1 + ν)), ν = 0.5; A = π r², I = π r⁴ / 4, J = π r⁴ / 2
+  (an elliptic section's, :class:`mjcable.CableSpec`);
 * the rest Darboux vectors are zero (``rest_shape="straight"``) or the start curve's (``"start"``);
 * a clamp holds its particle and the frame of the segment beside it (the whole frame: tangent and the turn about it);
   a gripper's frame turns with :meth:`mjcable.Simulator.move_gripper`'s ``orientation``; a clamp's torque
@@ -40,9 +42,9 @@ def compliances(scene: Scene) -> tuple:
     ga = cable.shear * cable.area
     shear = 1.0 / (ga * l0) if ga > 0.0 else 0.0  # a rope without E: frames held to the tangent (Kirchhoff)
     stretch = 0.0 if cable.stretch_stiffness is None else 1.0 / (cable.stretch_stiffness * l0)
-    bend = 1.0 / (max(cable.bending_stiffness, _LIMP) * l0)
+    bend1, bend2 = (1.0 / (max(ei, _LIMP) * l0) for ei in cable.bending_stiffnesses)
     twist = 1.0 / (max(cable.torsion_stiffness, _LIMP) * l0)
-    return (shear, shear, stretch, bend, bend, twist)
+    return (shear, shear, stretch, bend1, bend2, twist)
 
 
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:

@@ -252,6 +252,24 @@ def start_frames(particles: np.ndarray) -> np.ndarray:
     return material_frames(segment_frames(particles))
 
 
+def _about_d3(frame: np.ndarray, axis: np.ndarray, tangent: np.ndarray) -> np.ndarray:
+    """``(4,)`` the turn about d₃ (body z) that takes ``frame``'s d₁ onto ``axis`` projected perpendicular to
+    ``tangent`` (d₃).
+
+    Raises:
+      ValueError: ``axis`` along the tangent (no direction across the segment)."""
+    t = tangent / np.linalg.norm(tangent)
+    across = axis - np.dot(axis, t) * t
+    if np.linalg.norm(across) < 1e-9 * np.linalg.norm(axis):
+        raise ValueError(f"section_axis must point across the cable's first segment (direction {t.round(6).tolist()}),"
+                         f" got {axis.tolist()}, which runs along it")
+    w, x, y, z = frame
+    d1 = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)])
+    d2 = np.array([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)])
+    angle = math.atan2(np.dot(across, d2), np.dot(across, d1))
+    return np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
+
+
 def darboux(frames: np.ndarray, segment_length: float) -> np.ndarray:
     """``(n − 1, 3)`` 1/m discrete Darboux vectors (2 / l₀) Im(q̄ᵢ ⊗ q_{i+1}) of frames ``(n, 4)``, each relative
     rotation taken with w ≥ 0 ([KS16] Eq. 32, :mod:`mjcable.solvers.cosserat_kernels`)."""
@@ -272,8 +290,11 @@ def _rod_arrays(scene: Scene, clamps: list) -> dict:
     cable = scene.cable
     n = cable.n_segments
     q = start_frames(cable.particles)
+    if cable.section_axis is not None:  # the section's d₁ turned about d₃ onto the given axis, the same turn for all
+        q = quat_mul(q, _about_d3(q[0], np.asarray(cable.section_axis), cable.particles[1] - cable.particles[0]))
     m = cable.mass / n
-    inertia = np.tile([m * cable.radius**2 / 4.0, m * cable.radius**2 / 4.0, m * cable.radius**2 / 2.0], (n, 1))
+    i1, i2 = cable.second_moments
+    inertia = np.tile([m * i1 / cable.area, m * i2 / cable.area, m * (i1 + i2) / cable.area], (n, 1))
     ends = np.full(2, -1, dtype=np.int64)
     for row, k in enumerate(clamps):
         p = scene.pin_particle(k)
