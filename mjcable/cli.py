@@ -102,6 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"simulation step in seconds (default {DEFAULT_DT}; for --env, the task's)")
     render.add_argument("--camera", default="track",
                         help="'track' (follows the cable, default) or a camera of the model, e.g. 'overview'")
+    render.add_argument("--stripe", action="store_true", help="draw a stripe along the material frame, so that twist "
+                        "shows (models with frames: cosserat, joints, composite)")
     render.add_argument("--policy", choices=("random", "zero"), default="random", help="policy for --env (default "
                         "random)")
     render.add_argument("--seed", type=int, default=None, help="seed for --env")
@@ -204,10 +206,12 @@ def _render(args) -> int:
     width, height = _size(args, RENDER_SIZE if len(models) == 1 else GRID_TILE)
     if len(models) == 1:
         path = render.render_video(args.scene, models[0], args.out, seconds=args.seconds, fps=args.fps,
-                                   width=width, height=height, dt=dt, camera=args.camera)
+                                   width=width, height=height, dt=dt, camera=args.camera,
+                                   stripe=args.stripe)
     else:
         path = render.render_grid(args.scene, models, args.out, seconds=args.seconds, fps=args.fps,
-                                  tile_width=width, tile_height=height, dt=dt, camera=args.camera)
+                                  tile_width=width, tile_height=height, dt=dt, camera=args.camera,
+                                  stripe=args.stripe)
     print(path.resolve())
     return EXIT_FAILED if problems else EXIT_OK
 
@@ -217,6 +221,8 @@ def _render_env(args) -> int:
 
     if len(args.model) != 1 or args.model[0] == "all":
         raise ValueError(f"--env takes exactly one --model, got {args.model}")
+    if args.stripe:
+        raise ValueError("--stripe draws on --scene renders; an environment's video (--env) has no stripe")
     envs = importlib.import_module("mjcable.envs")  # imported here: dm_control is slow to import
     settings = {} if args.dt is None else {"dt": args.dt}
     env = envs.load(args.env, args.model[0], random=args.seed, **settings)

@@ -295,3 +295,35 @@ def test_import_sets_egl_when_unset():
     code = "import os, mjcable; print(os.environ['MUJOCO_GL'])"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "egl"
+
+
+def test_add_stripe_winds_round_a_twisted_cable():
+    """A straight cable twisted by φ = π/2 over its 4 segments (frames turned by φ (i + ½) / 4 about the axis): the
+    stripe's capsules lie at the drawn radius from the centreline, thinner than the cable, and their angle round the
+    axis advances by φ / 4 per segment."""
+    scn = _capsule_scene()
+    before = scn.ngeom
+    points = np.array([[0.25 * i, 0.0, 0.5] for i in range(5)])
+    to_x = np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0])  # d₃ (body z) along world x
+    angles = (np.arange(4) + 0.5) * (math.pi / 2) / 4
+    frames = np.array([[to_x[0] * math.cos(a / 2) - to_x[3] * math.sin(a / 2), to_x[1] * math.cos(a / 2)
+                        + to_x[2] * math.sin(a / 2), to_x[2] * math.cos(a / 2) - to_x[1] * math.sin(a / 2),
+                        to_x[3] * math.cos(a / 2) + to_x[0] * math.sin(a / 2)] for a in angles])  # to_x ⊗ (turn about z)
+    assert render.add_stripe(scn, points, frames, 0.02) == 4
+    centres = np.array([g.pos for g in scn.geoms[before:before + 4]])
+    across = centres[:, 1:] - points[0, 1:]  # off the axis (the cable runs along x)
+    np.testing.assert_allclose(np.linalg.norm(across, axis=1), 0.02, rtol=1e-5)
+    turn = np.diff(np.unwrap(np.arctan2(across[:, 1], across[:, 0])))
+    np.testing.assert_allclose(np.abs(turn), math.pi / 8, rtol=1e-5)
+    assert all(g.size[0] < 0.02 for g in scn.geoms[before:before + 4])
+    with pytest.raises(ValueError, match="frames must be"):
+        render.add_stripe(scn, points, frames[:3], 0.02)
+
+
+def test_frames_draw_the_stripe_for_models_with_frames():
+    """``stripe=True`` puts the stripe's colour into a cosserat video and leaves an xpbd one without it."""
+    yellow = np.array(overlays.STRIPE_RGBA[:3]) * 255
+    for model, has in (("cosserat", True), ("xpbd", False)):
+        video = render.frames("hang", model, seconds=0.1, fps=10, stripe=True, min_cable_px=4, **SMALL)
+        near = np.abs(video[-1].astype(float) - yellow).max(axis=-1) < 60
+        assert near.any() == has, model

@@ -30,7 +30,7 @@ Example::
 
 from mjcable.render.api import available_models, frames, grid_frames, render_env, render_grid, render_video
 from mjcable.render.camera import TRACK
-from mjcable.render.overlays import add_centreline
+from mjcable.render.overlays import add_centreline, add_stripe
 from mjcable.render.video_io import read_video, write_video
 
 __all__ = [
@@ -41,6 +41,7 @@ __all__ = [
     "render_env",
     "available_models",
     "add_centreline",
+    "add_stripe",
     "write_video",
     "read_video",
     "TRACK",

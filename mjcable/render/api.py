@@ -90,8 +90,8 @@ def _single(scene, model, label, **opts) -> Tuple:
 
 def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width: int = 320, height: int = 240,
            dt: float = 0.002, camera: str = cameras.TRACK, elevation: float = cameras.DEFAULT_ELEVATION,
-           min_cable_px: float = 1.5, label: Optional[str] = None, progress: Optional[bool] = False,
-           **settings) -> np.ndarray:
+           min_cable_px: float = 1.5, stripe: bool = False, label: Optional[str] = None,
+           progress: Optional[bool] = False, **settings) -> np.ndarray:
     """Render a simulation of ``scene`` with ``model`` into memory.
 
     Args:
@@ -107,6 +107,8 @@ def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width
       min_cable_px: the least radius in pixels the cable is drawn with, in [0, 100].
       label: the tile's label (default: the model's name).
       progress: show a progress bar (``None``: for long renders on a terminal).
+      stripe: draw a stripe along the cable's material frame (d₁) so that twist shows, for models with frames
+        (``cosserat``, ``joints``, ``composite``; the others are drawn without).
       **settings: the model's settings, passed to :class:`~mjcable.Simulator`.
 
     Returns:
@@ -117,7 +119,8 @@ def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width
         video = render.frames("hang", "springs", seconds=0.5, width=160, height=120)
     """
     scene, opts, label = _single(scene, model, label, seconds=seconds, fps=fps, width=width, height=height,
-                                 camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress)
+                                 camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
+        stripe=stripe)
     out = np.empty((opts.n_frames, opts.height, opts.width, 3), np.uint8)
     with TileStream(make_tiles(scene, [model], opts, dt, {model: settings}, [label]), opts) as stream:
         for k, (image,) in enumerate(stream):
@@ -127,8 +130,8 @@ def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width
 
 def render_video(scene: SceneLike, model: str, path, *, seconds: float = 5.0, fps: int = 30, width: int = 640,
                  height: int = 480, dt: float = 0.002, camera: str = cameras.TRACK,
-                 elevation: float = cameras.DEFAULT_ELEVATION, min_cable_px: float = 1.5, label: Optional[str] = None,
-                 progress: Optional[bool] = None, **settings) -> Path:
+                 elevation: float = cameras.DEFAULT_ELEVATION, min_cable_px: float = 1.5, stripe: bool = False,
+                 label: Optional[str] = None, progress: Optional[bool] = None, **settings) -> Path:
     """Render a simulation of ``scene`` with ``model`` to an MP4 file, atomically.
 
     Arguments as in :func:`frames`; ``path`` is the ``.mp4`` file to write (its folder must exist). A model that
@@ -142,7 +145,8 @@ def render_video(scene: SceneLike, model: str, path, *, seconds: float = 5.0, fp
         render.render_video("drape", "springs", "drape.mp4", seconds=3, width=480, height=360)
     """
     scene, opts, label = _single(scene, model, label, seconds=seconds, fps=fps, width=width, height=height,
-                                 camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress)
+                                 camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
+        stripe=stripe)
     path = check_path(path)
     with TileStream(make_tiles(scene, [model], opts, dt, {model: settings}, [label]), opts) as stream:
         write_video(path, (images[0] for images in stream), fps=opts.fps, shape=(opts.height, opts.width))
@@ -165,7 +169,7 @@ def _grid_stream(scene, models, opts: Options, layout: Layout, dt, settings) -> 
 def grid_frames(scene: SceneLike, models: Sequence[str], *, seconds: float, fps: int = 30, tile_width: int = 320,
                 tile_height: int = 240, dt: float = 0.002, columns: Optional[int] = None,
                 camera: str = cameras.TRACK, elevation: float = cameras.DEFAULT_ELEVATION,
-                min_cable_px: float = 1.5, settings: Optional[Mapping[str, dict]] = None,
+                min_cable_px: float = 1.5, stripe: bool = False, settings: Optional[Mapping[str, dict]] = None,
                 progress: Optional[bool] = False) -> np.ndarray:
     """Render several models of one scene side by side into memory.
 
@@ -182,14 +186,15 @@ def grid_frames(scene: SceneLike, models: Sequence[str], *, seconds: float, fps:
     """
     scene, models, opts, layout, settings = _grid(
         scene, models, columns, settings, seconds=seconds, fps=fps, width=tile_width, height=tile_height,
-        camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress)
+        camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
+        stripe=stripe)
     return np.stack(list(_grid_stream(scene, models, opts, layout, dt, settings)))
 
 
 def render_grid(scene: SceneLike, models: Sequence[str], path, *, seconds: float = 5.0, fps: int = 30,
                 tile_width: int = 320, tile_height: int = 240, dt: float = 0.002, columns: Optional[int] = None,
                 camera: str = cameras.TRACK, elevation: float = cameras.DEFAULT_ELEVATION,
-                min_cable_px: float = 1.5, settings: Optional[Mapping[str, dict]] = None,
+                min_cable_px: float = 1.5, stripe: bool = False, settings: Optional[Mapping[str, dict]] = None,
                 progress: Optional[bool] = None) -> Path:
     """Render several models of one scene side by side, labelled, to an MP4 file, atomically.
 
@@ -206,7 +211,8 @@ def render_grid(scene: SceneLike, models: Sequence[str], path, *, seconds: float
     """
     scene, models, opts, layout, settings = _grid(
         scene, models, columns, settings, seconds=seconds, fps=fps, width=tile_width, height=tile_height,
-        camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress)
+        camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
+        stripe=stripe)
     path = check_path(path)
     write_video(path, _grid_stream(scene, models, opts, layout, dt, settings), fps=opts.fps,
                 shape=layout.shape(opts.height, opts.width))

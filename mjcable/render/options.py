@@ -99,6 +99,8 @@ class Options:
       elevation: the tracking camera's angle above the horizon in degrees.
       min_cable_px: the least radius in pixels the cable is drawn with.
       progress: show a progress bar (``None``: automatic).
+      stripe: draw a stripe along each segment's material d₁ (models with frames: twist shows as a turning
+        stripe; the others are drawn without).
     """
 
     seconds: float
@@ -109,6 +111,7 @@ class Options:
     elevation: float
     min_cable_px: float
     progress: Optional[bool]
+    stripe: bool = False
 
     @property
     def n_frames(self) -> int:
@@ -116,7 +119,7 @@ class Options:
         return max(1, int(round(self.seconds * self.fps)))
 
 
-def options(*, seconds, fps, width, height, camera, elevation, min_cable_px, progress,
+def options(*, seconds, fps, width, height, camera, elevation, min_cable_px, progress, stripe=False,
             width_name: str = "width", height_name: str = "height") -> Options:
     """Check every option and return them as :class:`Options` (``ValueError`` naming the first bad one)."""
     return Options(
@@ -128,4 +131,5 @@ def options(*, seconds, fps, width, height, camera, elevation, min_cable_px, pro
         elevation=check_elevation(elevation),
         min_cable_px=check_min_cable_px(min_cable_px),
         progress=check_progress(progress),
+        stripe=_validate.boolean("stripe", stripe),
     )

@@ -22,10 +22,12 @@ import numpy as np
 
 from mjcable import _validate
 
-__all__ = ["add_centreline", "draw_label", "CABLE_RGBA", "CABLE_SPECULAR", "CORNERS"]
+__all__ = ["add_centreline", "add_stripe", "draw_label", "CABLE_RGBA", "STRIPE_RGBA", "CABLE_SPECULAR", "CORNERS"]
 
 CABLE_RGBA = (0.85, 0.25, 0.12, 1.0)  # mjcable/mjcf/world.py's "cable" material
 CABLE_SPECULAR = 0.3
+STRIPE_RGBA = (0.95, 0.9, 0.2, 1.0)  # the twist stripe (add_stripe): yellow on the red-brown cable
+STRIPE_WIDTH = 0.35  # the stripe's radius as a fraction of the cable's drawn radius
 CORNERS = ("left", "right")  # where draw_label puts a label: the top left or top right corner
 _LABEL_HEIGHT_FRACTION = 1.0 / 18.0  # label font size as a fraction of the image height
 _MIN_LABEL_PX = 10
@@ -74,6 +76,35 @@ def add_centreline(scn: mujoco.MjvScene, points, radius: float, rgba=CABLE_RGBA,
         mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_CAPSULE, radius, points[i], points[i + 1])
         g.specular = specular
         scn.ngeom += 1
+    return count
+
+
+def add_stripe(scn: mujoco.MjvScene, points, frames, radius: float, rgba=STRIPE_RGBA) -> int:
+    """Append a stripe along the cable's surface on the side of each segment's material d₁ to ``scn``: per segment
+    a thin capsule from pᵢ + r d₁ to pᵢ₊₁ + r d₁, so that the cable's twist shows as a stripe that winds round it.
+
+    Args:
+      scn: the scene, after :func:`add_centreline` (the stripe lies on that surface).
+      points: ``(n + 1, 3)`` centreline points in metres.
+      frames: ``(n, 4)`` the segments' material frames, unit quaternions (w, x, y, z)
+        (:attr:`mjcable.Simulator.frames`).
+      radius: the drawn cable's radius in metres, > 0.
+      rgba: colour, 4 values in [0, 1].
+
+    Returns:
+      The number of capsules added (``n``, fewer when ``scn.maxgeom`` is reached).
+    """
+    points = np.asarray(points, dtype=np.float64)
+    q = np.asarray(frames, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or q.shape != (len(points) - 1, 4):
+        raise ValueError(f"frames must be (n, 4) quaternions for the n segments of points (n + 1, 3), got shapes "
+                         f"{q.shape} and {points.shape}")
+    w, x, y, z = q.T
+    d1 = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
+    starts, ends = points[:-1] + radius * d1, points[1:] + radius * d1
+    count = 0
+    for i in range(len(q)):  # per frame, like add_centreline's segments
+        count += add_centreline(scn, np.stack([starts[i], ends[i]]), STRIPE_WIDTH * radius, rgba)
     return count
 
 

@@ -20,10 +20,11 @@ from typing import Iterator, List, Mapping, Optional, Sequence
 import mujoco  # mjcable/__init__.py has set MUJOCO_GL=egl (unless set) before mujoco was first imported
 import numpy as np
 
+from mjcable import catalog
 from mjcable.errors import SimulationDivergedError
 from mjcable.render import camera as cameras
 from mjcable.render.options import Options
-from mjcable.render.overlays import add_centreline, draw_label
+from mjcable.render.overlays import add_centreline, add_stripe, draw_label
 from mjcable.scene import Scene
 from mjcable.simulator import Simulator
 
@@ -61,6 +62,7 @@ class Tile:
         self.diverged: Optional[SimulationDivergedError] = None
         self.last: Optional[np.ndarray] = None
         self.radius = sim.scene.cable.radius
+        self.has_frames = catalog.get(sim.model).frames
 
     @property
     def live(self) -> bool:
@@ -97,7 +99,10 @@ class Tile:
         r.update_scene(self.sim.mj_data, camera=camera, scene_option=cameras.scene_option())
         r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0  # CPU rendering: shadows and reflections cost 5-10x
         r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
-        add_centreline(r.scene, self.sim.positions, max(self.radius, self.opts.min_cable_px * pixel_size))
+        drawn = max(self.radius, self.opts.min_cable_px * pixel_size)
+        add_centreline(r.scene, self.sim.positions, drawn)
+        if self.opts.stripe and self.has_frames:
+            add_stripe(r.scene, self.sim.positions, self.sim.frames, drawn)
         self.last = r.render().copy()
         image = self.last.copy()
         draw_label(image, self.label, corner="left")
