@@ -458,8 +458,9 @@ class Simulator:
         there linearly over the next step's substeps.
 
         ``orientation``: a unit quaternion (4,) (w, x, y, z), the gripper's turn from its start orientation; a
-        clamped gripper of a model with frames (``cosserat``) turns the frame it holds with it (slerped over the
-        step's substeps), twisting or bending the cable. Other models raise a ``ValueError`` when it is given."""
+        clamped gripper of a model with frames (``cosserat``, ``joints``, ``composite``) turns the frame it holds
+        with it (interpolated over the step's substeps), twisting or bending the cable. Other models, and grippers
+        that are not clamped, raise a ``ValueError`` when it is given."""
         grippers = self._grippers
         if isinstance(pin_number, bool) or pin_number not in grippers:
             raise ValueError(f"pin_number must index a gripper pin, one of {grippers}, got {pin_number!r}")

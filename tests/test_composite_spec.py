@@ -97,7 +97,7 @@ def _old_build(scene, *, timestep, self_collision=False):
     for i in range(n - 1):
         spec.add_exclude(bodyname1=body_name(i, n), bodyname2=body_name(i + 1, n))
 
-    joints.add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
+    joints.add_pin_equalities(spec, scene, timestep=timestep, body_name=lambda i: body_name(i, n), skip=tree_pin)
     return snap.snap_spec(spec)
 
 

@@ -278,3 +278,29 @@ def test_a_bad_section_is_named():
     along = CableSpec([[0, 0, 1], [L, 0, 1]], 4, RADIUS, 0.05, section=(0.004, 0.002), section_axis=(1, 0, 0))
     with pytest.raises(ValueError, match="section_axis must point across the cable's first segment"):
         mjcable.Simulator(Scene(along), "cosserat")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("phi", [0.5, 2 * math.pi])
+@pytest.mark.parametrize("model", ["joints", pytest.param("composite", marks=pytest.mark.composite)])
+def test_the_native_capsule_chains_twist_when_a_clamped_gripper_turns(model, phi):
+    """``joints`` and ``composite`` clamps hold the whole frame (a third connect off the axis), so a gripper that
+    turns by φ twists them: end torques C φ / L within 1 % (``composite``: C = G·J; ``joints``: its stated C = E·I,
+    the ball joints' isotropic stiffness) and a uniform twist: the end segments turn with their clamps, every joint
+    between them by φ / (N − 1) within 2 % (the discrete chain's twist lives in its N − 1 joints, which costs 1/(N −
+    1) of the torque: hence N = 100)."""
+    n = 100
+    cable = CableSpec([START, START + [L, 0, 0]], n, RADIUS, 0.05, young=YOUNG, damping=30.0)
+    sim = mjcable.Simulator(_both_clamped(cable), model)
+    end = sim.gripper_positions[0]
+    for j in range(1, 41):
+        sim.move_gripper(1, end, _turn([1, 0, 0], phi * j / 40))
+        sim.step()
+    sim.step(1.5)
+    stiffness = cable.torsion_stiffness if model == "composite" else cable.bending_stiffness
+    assert sim.pin_torques[1, 0] == pytest.approx(stiffness * phi / L, rel=0.01)
+    assert -sim.pin_torques[0, 0] == pytest.approx(stiffness * phi / L, rel=0.01)
+    turned = quat_mul(sim.frames, start_frames(cable.particles) * [1, -1, -1, -1])
+    angle = np.unwrap(2 * np.arctan2(turned[:, 1], turned[:, 0]))
+    np.testing.assert_allclose(angle[[0, -1]], [0.0, phi], atol=0.01 * phi)  # the end segments turn with the clamps
+    np.testing.assert_allclose(np.diff(angle), phi / (n - 1), rtol=0.02)  # a uniform twist: equal at every joint

@@ -30,7 +30,7 @@ from mjcable.mjcf import data, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
-from mjcable.solvers.state import material_frames
+from mjcable.solvers.state import quat_mul, start_frames
 
 __all__ = ["NativeBackend", "spec_builder", "DIVERGENCE_WARNINGS"]
 
@@ -78,7 +78,6 @@ class NativeBackend:
 
     def __init__(self, scene: Scene, entry, dt: float, settings: NativeSettings):
         self.scene, self.name, self.dt, self.settings = scene, entry.name, dt, settings
-        self._has_frames = entry.frames
         self.substeps = settings.substeps
         try:
             self.mj_model = entry.build(scene, settings, dt).compile()
@@ -98,16 +97,22 @@ class NativeBackend:
         if np.any(self._sites < 0):
             raise RuntimeError(f"model {self.name!r} lacks particle sites")  # pragma: no cover - a generator bug
         self._site_body = m.site_bodyid[self._sites]
+        self._has_frames = entry.frames
         self._gripper_mocap = np.array([int(m.body_mocapid[_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
                                                                      world.gripper_body(k))])
                                         for k in scene.grippers], dtype=np.int64)
         self._mocap_of_pin = dict(zip(scene.grippers, self._gripper_mocap.tolist()))
-        # pin k -> (equality ids of pin{k} and pin{k}_clamp, -1 where absent)
-        self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c))
-                                  for c in (False, True)] for k in range(len(scene.pins))],
-                                dtype=np.int64).reshape(-1, 2)
+        # pin k -> (equality ids of pin{k}, pin{k}_clamp and pin{k}_roll, -1 where absent)
+        self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c, roll=r))
+                                  for c, r in ((False, False), (True, False), (False, True))]
+                                 for k in range(len(scene.pins))], dtype=np.int64).reshape(-1, 3)
+        # pin k -> the roll site its third connect holds (-1: none)
+        self._roll_site = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.roll_site(scene.pin_particle(k)))
+                                    if self._pin_eq[k, 2] >= 0 else -1 for k in range(len(scene.pins))],
+                                   dtype=np.int64)
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]
         self._gripper_from = {}  # mocap id -> its position at the start of the next step (grippers moved since)
+        self._gripper_turn = {}  # mocap id -> its orientation at the start of the next step (grippers turned since)
         self._added = np.zeros(n)  # kg of point masses added per particle
         # the physics monitor (mjcable.monitor): limits, rest lengths, and the pins connect equalities hold (the
         # kinematic tree's pins can't tear), with their anchor sites
@@ -127,6 +132,8 @@ class NativeBackend:
         self._held_geoms = np.isin(m.geom_bodyid, held)
         self._energy = CableEnergy(m, self._sites, scene)
         self.reset()
+        if self._has_frames:  # models of segment bodies: each segment's body, and its start frame in that body
+            self._segment_body, self._frame_offset = self._segment_bodies()
 
     # -- the step -------------------------------------------------------------------------------------------------
 
@@ -134,7 +141,7 @@ class NativeBackend:
         m, d = self.mj_model, self.mj_data
         world.reset_to_start(m, d)
         mujoco.mj_forward(m, d)
-        self._gripper_from = {}
+        self._gripper_from, self._gripper_turn = {}, {}
         self._refresh()
         self._last = self.positions()  # the particles before the next step (run()'s divergence checks)
 
@@ -211,12 +218,20 @@ class NativeBackend:
         m, d = self.mj_model, self.mj_data
         if self._gripper_from and self.substeps > 1:
             # A moved gripper travels linearly over the substeps, as the particle backend's pins do: a jump at the
-            # first substep would inject energy into the stiff links holding its particle.
+            # first substep would inject energy into the stiff links holding its particle; a turned one turns
+            # (normalised linear interpolation of its quaternion, the short way round).
             moved = list(self._gripper_from)
             start = np.array([self._gripper_from[i] for i in moved])
             target = d.mocap_pos[moved].copy()
+            turned = list(self._gripper_turn)
+            q0 = np.array([self._gripper_turn[i] for i in turned]).reshape(-1, 4)
+            q1 = d.mocap_quat[turned].copy()
+            q0 *= np.where(np.sum(q0 * q1, axis=1) < 0.0, -1.0, 1.0)[:, None]
             for s in range(1, self.substeps + 1):
                 d.mocap_pos[moved] = start + (target - start) * (s / self.substeps)
+                if turned:
+                    q = q0 + (q1 - q0) * (s / self.substeps)
+                    d.mocap_quat[turned] = q / np.linalg.norm(q, axis=1)[:, None]
                 mujoco.mj_step(m, d)
                 self._release_sockets()
         elif self._sockets:
@@ -226,6 +241,7 @@ class NativeBackend:
         else:
             mujoco.mj_step(m, d, nstep=self.substeps)
         self._gripper_from = {}
+        self._gripper_turn = {}
         counts = d.warning.number  # a writable view; MuJoCo's own reset zeroes it, so read and clear per dt
         bad = [w for w in DIVERGENCE_WARNINGS if counts[w] > 0]
         if bad:
@@ -320,7 +336,7 @@ class NativeBackend:
             mujoco.mj_comVel(m, d)
             mujoco.mj_rnePostConstraint(m, d)
         for k in range(len(scene.pins)):
-            eq, eq_clamp = (int(e) for e in self._pin_eq[k])
+            eq, eq_clamp, eq_roll = (int(e) for e in self._pin_eq[k])
             if eq < 0:
                 out[k] = self._tree_wrench(k)
                 continue
@@ -332,6 +348,10 @@ class NativeBackend:
                 out[k, 3:] += f
                 i, j = scene.pin_particle(k), scene.clamp_neighbour(k)
                 out[k, :3] = np.cross(x[j] - x[i], f)
+            if eq_roll >= 0:
+                f = self._equality_force(eq_roll)
+                out[k, 3:] += f
+                out[k, :3] += np.cross(self.mj_data.site_xpos[self._roll_site[k]] - x[scene.pin_particle(k)], f)
         return out
 
     def gripper_positions(self) -> np.ndarray:
@@ -341,15 +361,46 @@ class NativeBackend:
         if not self._has_frames:
             raise ValueError(f"frames: model {self.name!r} has no material frames (its cable is point masses, no "
                              "segment bodies); models with frames: cosserat, joints, composite")
-        return material_frames(self.mj_data.xquat[self._site_body[:-1]])  # segment i's body holds particle i
+        return quat_mul(self.mj_data.xquat[self._segment_body], self._frame_offset)
+
+    def _segment_bodies(self) -> tuple:
+        """``(n,)`` the body of each segment (among the two holding its particles, the one whose origin is at one of
+        them and whose x axis reaches the other: a tree rooted at the cable's far end runs backwards) and ``(n, 4)``
+        the segment's start material frame in that body's frame, from the start pose: the frames are then the
+        twist-free start frames of every model (:func:`mjcable.solvers.state.start_frames`), turned with the
+        bodies."""
+        m, d = self.mj_model, self.mj_data
+        x, l0 = d.site_xpos[self._sites], self.scene.cable.segment_length
+        bodies = []
+        for i in range(self.scene.cable.n_segments):
+            for b in dict.fromkeys((int(self._site_body[i]), int(self._site_body[i + 1]))):
+                origin, axis = d.xpos[b], d.xmat[b].reshape(3, 3)[:, 0]
+                for start, end in ((x[i], x[i + 1]), (x[i + 1], x[i])):
+                    if max(np.abs(origin - start).max(), np.abs(origin + l0 * axis - end).max()) < 1e-6 * max(l0, 1):
+                        bodies.append(b)
+                        break
+                if len(bodies) > i:
+                    break
+            if len(bodies) <= i:  # pragma: no cover - a generator bug
+                raise RuntimeError(f"model {self.name!r}: no body spans segment {i}")
+        bodies = np.array(bodies, dtype=np.int64)
+        offset = quat_mul(d.xquat[bodies] * [1.0, -1.0, -1.0, -1.0], start_frames(self.scene.cable.particles))
+        return bodies, offset
 
     def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
-        if orientation is not None:
-            raise ValueError(f"orientation: model {self.name!r} can't turn a gripper (its pins hold positions); "
-                             "models with frames: cosserat")
         i = self._mocap_of_pin[k]
-        self._gripper_from.setdefault(i, self.mj_data.mocap_pos[i].copy())
-        self.mj_data.mocap_pos[i] = position
+        d = self.mj_data
+        if orientation is not None:
+            if not self._has_frames:
+                raise ValueError(f"orientation: model {self.name!r} can't turn a gripper (its cable has no "
+                                 "material frames; models with frames: cosserat, joints, composite)")
+            if not self.scene.pins[k].clamp:
+                raise ValueError(f"orientation: pins[{k}] is not clamped (clamp=False): a gripper turns only a "
+                                 "clamped end")
+            self._gripper_turn.setdefault(i, d.mocap_quat[i].copy())
+            d.mocap_quat[i] = orientation
+        self._gripper_from.setdefault(i, d.mocap_pos[i].copy())
+        d.mocap_pos[i] = position
 
     def add_point_mass(self, index: int, mass: float) -> None:
         """Add ``mass`` at particle ``index``'s site to the body holding it: the body's mass, centre of mass and

@@ -335,7 +335,8 @@ class ParticleBackend:
             if not len(rows):
                 raise ValueError(f"orientation: model {self.name!r} can't turn the gripper of pins[{k}]"
                                  + (" (not clamped: pass clamp=True to its Pin)" if a.q.shape[0] else
-                                    " (its cable has no material frames; models with frames: cosserat)"))
+                                    " (its cable has no material frames; models with frames: cosserat, joints, "
+                                    "composite)"))
             row = int(rows[0])
             start = self._start["q"][a.clamp_seg[row]]
             a.clamp_qto[row] = quat_mul(orientation, start)

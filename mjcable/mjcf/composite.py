@@ -177,7 +177,7 @@ def add_cable(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, self_collis
         spec.add_exclude(bodyname1=body_name(i, n), bodyname2=body_name(i + 1, n))
     if self_collision:
         world.exclude_overlapping(spec, scene, [body_name(i, n) for i in range(n)], start=2)
-    joints.add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
+    joints.add_pin_equalities(spec, scene, timestep=timestep, body_name=lambda i: body_name(i, n), skip=tree_pin)
 
 
 def _add_chain(spec: mujoco.MjSpec, scene: Scene, parent, origin: np.ndarray, p: np.ndarray, order: np.ndarray, *,

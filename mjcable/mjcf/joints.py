@@ -78,7 +78,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Optional
+from typing import Callable, Optional
 
 import mujoco
 import numpy as np
@@ -113,6 +113,7 @@ __all__ = [
 
 #: the cable's properties this model does not use (:attr:`mjcable.catalog.ModelEntry.ignores`)
 IGNORES = {"stretch_stiffness": "its segments are rigid, so the cable is inextensible"}
+ROLL_LEVER = 10.0  # a clamp's roll site sits this many cable radii (at least a segment) off the axis: a stiff turn
 STABLE_OMEGA_H = 1.0  # ω·h of the fastest joint-spring mode the armature allows (semi-implicit Euler's limit is 2)
 WHIP_ARMATURE = 10.0  # α of the ball-joint armature α·(m/n)·l₀² that tames the free-end whip
 WHIP_RELAXATION_STEPS = 20.0  # physics steps in which ball-joint damping relaxes the armature's relative spin
@@ -289,13 +290,21 @@ def add_anchors(spec: mujoco.MjSpec, scene: Scene) -> None:
         world.add_anchor(spec, scene, k)
 
 
-def add_pin_equalities(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, skip: Optional[int] = None) -> None:
+def add_pin_equalities(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, body_name: Callable[[int], str],
+                       skip: Optional[int] = None) -> None:
     """Hold every pin but ``skip`` with site-to-site connect equalities (independent of qpos0).
 
     Pin ``k`` connects ``particle{i}`` to ``anchor{k}`` (from :func:`add_anchors`: a world site, or a site in the
     gripper's mocap body); a clamp also connects the neighbouring particle to ``anchor{k}_clamp`` at its start
-    position, in the same body. Equalities are named ``pin{k}`` and ``pin{k}_clamp``.
+    position, in the same body, and a site off the axis beside the particle (along its body's y axis, in
+    the body ``body_name(b)`` of tree index b that holds the particle) to ``anchor{k}_roll``: three points hold the
+    whole frame, the turn about the tangent included. Equalities are named ``pin{k}``, ``pin{k}_clamp`` and
+    ``pin{k}_roll``.
     """
+    cable = scene.cable
+    n, l0 = cable.n_segments, cable.segment_length
+    order = tree_order(scene)
+    frames = segment_frames(cable.particles[order])  # the bodies' start orientations, in tree order
     for k, pin in enumerate(scene.pins):
         if k == skip:
             continue
@@ -306,6 +315,14 @@ def add_pin_equalities(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, sk
             j = scene.clamp_neighbour(k)
             world.add_connect(spec, world.pin_equality(k, clamp=True), world.particle_site(j),
                               world.add_clamp_anchor(spec, scene, k), timestep=timestep)
+            b = int(np.flatnonzero(order == i)[0])
+            lever = max(l0, ROLL_LEVER * cable.radius)
+            local = np.array([0.0 if b < n else l0, lever, 0.0])
+            b = min(b, n - 1)  # the last particle sits at the end of the last body
+            spec.body(body_name(b)).add_site(name=world.roll_site(i), pos=local)
+            y_axis = Rotation.from_quat(frames[b], scalar_first=True).apply([0.0, 1.0, 0.0])
+            roll = world.add_roll_anchor(spec, scene, k, cable.particles[i] + lever * y_axis)
+            world.add_connect(spec, world.pin_equality(k, roll=True), world.roll_site(i), roll, timestep=timestep)
 
 
 def root_joint(scene: Scene) -> tuple:
@@ -372,7 +389,7 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         body.add_site(name=world.particle_site(order[i]))
     body.add_site(name=world.particle_site(order[n]), pos=[l0, 0.0, 0.0])
 
-    add_pin_equalities(spec, scene, timestep=timestep, skip=tree_pin)
+    add_pin_equalities(spec, scene, timestep=timestep, body_name=body_name, skip=tree_pin)
     if self_collision:
         world.exclude_overlapping(spec, scene, [body_name(i) for i in range(n)])
     if straight:  # the root is compiled in its start pose: identity root qpos, then the start shape's ball quats

@@ -79,8 +79,13 @@ def gripper_body(k: int) -> str:
     return f"gripper{k}"
 
 
-def pin_equality(k: int, clamp: bool = False) -> str:
-    return f"pin{k}_clamp" if clamp else f"pin{k}"
+def pin_equality(k: int, clamp: bool = False, roll: bool = False) -> str:
+    return f"pin{k}_roll" if roll else (f"pin{k}_clamp" if clamp else f"pin{k}")
+
+
+def roll_site(i: int) -> str:
+    """The site beside particle ``i``, off the cable's axis, that a clamp's third connect holds."""
+    return f"particle{i}_roll"
 
 
 def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -> mujoco.MjSpec:
@@ -359,6 +364,23 @@ def add_clamp_anchor(spec: mujoco.MjSpec, scene: Scene, k: int) -> str:
         spec.body(gripper_body(k)).add_site(name=name, pos=p[j] - p[i])
     else:
         spec.worldbody.add_site(name=name, pos=p[j])
+    return name
+
+
+def add_roll_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position: np.ndarray) -> str:
+    """The site ``anchor{k}_roll`` at the world point ``position`` (a point off the cable's axis beside pin ``k``'s
+    particle, held by a third connect so that a clamp of a model with segment bodies also holds the turn about the
+    tangent), in the same body as ``anchor{k}`` (:func:`add_anchor`). Returns its name."""
+    pin = scene.pins[k]
+    p = scene.cable.particles[scene.pin_particle(k)]
+    name = f"{anchor_site(k)}_roll"
+    if pin.kind == "body":
+        _, rot = scene.world.body_pose(pin.body)
+        spec.body(pin.body).add_site(name=name, pos=np.asarray(pin.offset) + rot.T @ (position - p))
+    elif pin.kind == "gripper":
+        spec.body(gripper_body(k)).add_site(name=name, pos=position - p)
+    else:
+        spec.worldbody.add_site(name=name, pos=position)
     return name
 
 
