@@ -20,7 +20,7 @@ def _params(n):
             "friction": np.linspace(0.2, 1.0, n), "stretch_stiffness": np.linspace(500.0, 2000.0, n)}
 
 
-@pytest.mark.parametrize("model", ["xpbd", "springs"])
+@pytest.mark.parametrize("model", ["xpbd", "springs", "cosserat"])
 def test_copies_equal_single_simulators_built_with_their_params(table, model):
     n = 3
     params = _params(n)
