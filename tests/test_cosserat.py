@@ -304,3 +304,29 @@ def test_the_native_capsule_chains_twist_when_a_clamped_gripper_turns(model, phi
     angle = np.unwrap(2 * np.arctan2(turned[:, 1], turned[:, 0]))
     np.testing.assert_allclose(angle[[0, -1]], [0.0, phi], atol=0.01 * phi)  # the end segments turn with the clamps
     np.testing.assert_allclose(np.diff(angle), phi / (n - 1), rtol=0.02)  # a uniform twist: equal at every joint
+
+
+def test_greenhill_a_twisted_rod_buckles_at_2_86_pi_b_over_l():
+    """Twist buckling (Greenhill; Timoshenko & Gere): a rod clamped at both ends, one end free to slide along the
+    axis, twisted at that end, stays straight until the axial torque reaches M_c = 2.86 π B / L. The sliding end is
+    a gripper that each step gives way along the axis to the axial force it feels (a slider: 5e-5 m/N, half the
+    extensible rod's axial compliance L / E·A, so it settles); the rod starts with a 1 mm bow (an imperfection to
+    buckle from) and is twisted at a constant rate to 1.15 M_c over 10 s. At 0.95 M_c its middle is still within the
+    bow (< 1 mm off the axis), at 1.05 M_c it has buckled (> 5 mm): the critical torque within 5 %."""
+    n = 40
+    bow = [START + [s, 1e-3 * math.sin(math.pi * s / L), 0.0] for s in np.linspace(0.0, L, 21)]
+    cable = CableSpec(bow, n, RADIUS, 0.05, young=YOUNG, damping=30.0, stretch_stiffness=YOUNG * math.pi * RADIUS**2)
+    critical = 2.86 * math.pi * cable.bending_stiffness / L
+    sim = mjcable.Simulator(_both_clamped(cable), "cosserat")
+    end = sim.gripper_positions[0].copy()
+    steps = round(10.0 / sim.dt)
+    phi_end = 1.15 * critical * L / cable.torsion_stiffness
+    torque, offset = np.empty(steps), np.empty(steps)
+    for k in range(steps):
+        end[0] -= 5e-5 * sim.pin_forces[1, 0]  # the slider gives way to the axial force
+        sim.move_gripper(1, end, _turn([1, 0, 0], phi_end * (k + 1) / steps))
+        sim.step()
+        torque[k] = sim.pin_torques[1, 0]
+        offset[k] = np.linalg.norm(sim.positions[n // 2, 1:] - START[1:])
+    assert offset[np.argmin(np.abs(torque - 0.95 * critical))] < 1e-3
+    assert offset[np.argmin(np.abs(torque - 1.05 * critical))] > 5e-3
