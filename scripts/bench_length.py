@@ -9,7 +9,7 @@ Every time is the best of ``repeats`` runs of ``Simulator.step(seconds)`` on a f
 
 Usage::
 
-    python scripts/bench_length.py [--repeats 3] [--ns 50 400 800 1600]
+    python scripts/bench_length.py [--repeats 3] [--ns 50 400 800 1600] [--model cosserat]
 
 From another script in this folder::
 
@@ -33,25 +33,27 @@ WARM_UP = 0.02  # s simulated before timing: compiles or loads the kernels and l
 SECONDS = 0.5  # s simulated per timed run (250 steps at the default dt)
 
 
-def _seconds_per_second(n: int, seconds: float, settings: dict) -> float:
+def _seconds_per_second(n: int, seconds: float, settings: dict, model: str = MODEL) -> float:
     with warnings.catch_warnings():  # fine chains warn that the default radius exceeds a segment: no contacts here
         warnings.simplefilter("ignore", UserWarning)
         scene = mjcable.scenes.get(SCENE, n_segments=n)
-    sim = mjcable.Simulator(scene, MODEL, **settings)
+    sim = mjcable.Simulator(scene, model, **settings)
     sim.step(WARM_UP)
     start = time.perf_counter()
     sim.step(seconds)
     return (time.perf_counter() - start) / seconds
 
 
-def measure(ns=(50, 400, 800, 1600), repeats: int = 3, *, seconds: float = SECONDS, **settings) -> dict:
-    """Wall seconds per simulated second of ``hang`` with ``n`` segments on ``xpbd`` (defaults), best of
-    ``repeats``.
+def measure(ns=(50, 400, 800, 1600), repeats: int = 3, *, seconds: float = SECONDS, model: str = MODEL,
+            **settings) -> dict:
+    """Wall seconds per simulated second of ``hang`` with ``n`` segments on ``model`` (default ``xpbd``; its
+    defaults), best of ``repeats``.
 
     Args:
         ns: segment counts.
         repeats: timed runs per count (each on a fresh simulator); the best is kept.
         seconds: simulated seconds per timed run.
+        model: the particle model (a catalogue name).
         **settings: :class:`mjcable.Simulator` settings replacing the model's defaults (e.g. ``substeps=16``).
 
     Returns:
@@ -62,7 +64,7 @@ def measure(ns=(50, 400, 800, 1600), repeats: int = 3, *, seconds: float = SECON
         raise ValueError(f"ns must be positive segment counts, got {ns}")
     if repeats < 1:
         raise ValueError(f"repeats must be at least 1, got {repeats}")
-    return {n: min(_seconds_per_second(n, seconds, settings) for _ in range(repeats)) for n in ns}
+    return {n: min(_seconds_per_second(n, seconds, settings, model) for _ in range(repeats)) for n in ns}
 
 
 def table(times: dict) -> str:
@@ -85,9 +87,10 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--ns", type=int, nargs="+", default=[50, 400, 800, 1600])
     parser.add_argument("--substeps", type=int, default=None, help="replace the model's default substeps")
+    parser.add_argument("--model", default=MODEL, help=f"the particle model (default {MODEL})")
     args = parser.parse_args()
     settings = {} if args.substeps is None else {"substeps": args.substeps}
-    print(table(measure(args.ns, args.repeats, **settings)))
+    print(table(measure(args.ns, args.repeats, model=args.model, **settings)))
 
 
 if __name__ == "__main__":

@@ -8,6 +8,9 @@ Prints a markdown table (the README's "Speed" section shows one) of:
   kernel plus the ``mj_collision`` queries the step made, on a second simulator's state; and ``step(1.0)`` from the
   start (the cable falls for 0.2 s first);
 * cost against length: ``hang`` on ``xpbd`` (defaults) at 50, 400 and 1600 segments (:func:`bench_length.measure`);
+* the Cosserat rod against ``xpbd`` (both defaults): ``step(1.0)`` from the start on ``hang`` and ``table`` at 50
+  and 200 segments, side by side (:func:`bench_cosserat`; the issue's bar is 2×), and ``cosserat``'s ``hang`` at
+  400 and 1600 segments (linear: 4×);
 * a resting cable: ``table`` at rest against ``hang``, 200 segments, ``xpbd`` defaults (:func:`bench_skip.measure`);
 * ``mjcable bench``'s runner against ``Simulator.step(T)`` on the same case (:func:`bench_runner.measure_bench_vs_step`);
 * every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed);
@@ -31,6 +34,7 @@ import math
 import os
 import platform
 import time
+import warnings
 
 import mujoco
 import numba
@@ -206,6 +210,23 @@ def bench_native(repeats: int) -> dict:
     return out
 
 
+def bench_cosserat(repeats: int) -> dict:
+    """``step(1.0)`` from the start of ``cosserat`` and ``xpbd`` (defaults) on ``hang`` and ``table`` at 50 and 200
+    segments, alternated run by run ({(scene, n): (cosserat s, xpbd s)})."""
+    out = {}
+    for name in ("hang", "table"):
+        for n in (50, 200):
+            with warnings.catch_warnings():  # the default radius exceeds a fine chain's segment: contacts still work
+                warnings.simplefilter("ignore", UserWarning)
+                scene = mjcable.scenes.get(name, n_segments=n)
+            sims = [mjcable.Simulator(scene, model) for model in ("cosserat", "xpbd")]
+            for sim in sims:
+                sim.step(0.01)  # warm-up (compiles or loads the kernels)
+            step = [lambda sim=sim: sim.step(SECONDS) for sim in sims]
+            out[name, n] = _best_pair(step[0], step[1], repeats, sims[0].reset, sims[1].reset)
+    return out
+
+
 def _machine() -> str:
     cpu = platform.processor() or platform.machine()
     try:
@@ -256,6 +277,12 @@ def main() -> None:
     print(f"| `hang`, xpbd (defaults), wall s per simulated s at 1600 segments vs 400 (50: "
           f"{lengths[50]:.4f} s/s) | {lengths[1600]:.4f} s/s | {lengths[400]:.4f} s/s | "
           f"{lengths[1600] / lengths[400]:.2f}× |")
+    for (name, n), (t_rod, t_xpbd) in bench_cosserat(args.repeats).items():
+        print(f"| `{name}`, {n} segments: cosserat vs xpbd (defaults), `step(1.0)` from the start | "
+              f"{t_rod * ms:.2f} ms | {t_xpbd * ms:.2f} ms | {t_rod / t_xpbd:.2f}× |")
+    rods = bench_length.measure(ns=(400, 1600), repeats=args.repeats, model="cosserat")
+    print(f"| `hang`, cosserat (defaults), wall s per simulated s at 1600 segments vs 400 | {rods[1600]:.4f} s/s | "
+          f"{rods[400]:.4f} s/s | {rods[1600] / rods[400]:.2f}× |")
     rest = bench_skip.measure(model="xpbd", n_segments=200, repeats=args.repeats)
     print(f"| `table` at rest, 200 segments, xpbd (defaults): `step(1.0)` vs the same cable's `hang` `step(1.0)` "
           f"({rest['queries_per_step']:.2f} queries per step, {rest['contacts']} contacts) | "

@@ -12,7 +12,9 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
 * bend–twist between neighbouring segments: α = (1/(E·I₁ l₀), 1/(E·I₂ l₀), 1/(G·J l₀)) (I₁ = I₂ = I for a round
   cable; a flat one's ``CableSpec.section`` gives I₁ about d₁ and I₂ about d₂); a rod without bending
   stiffness (E = 0) has none of these rows' stiffness (α = ∞ is taken as a free joint: the rows are left at a
-  compliance of 1/(ε l₀) with ε = ``_LIMP`` N·m²);
+  compliance of 1/(ε l₀) with ε = ``_LIMP`` N·m²); where the torsion stiffness G·J is none too (a rope), the
+  direct solve leaves those rows out (:mod:`mjcable.solvers.cosserat_direct_kernels`, as ``xpbd`` leaves out
+  bending at E = 0), and with them a clamp's frame, which then holds its particle only;
 * G is the cable's ``shear_modulus``, or E / (2 (1 + ν)), ν = 0.5; A = π r², I = π r⁴ / 4, J = π r⁴ / 2
   (an elliptic section's, :class:`mjcable.CableSpec`);
 * the rest Darboux vectors are zero (``rest_shape="straight"``) or the start curve's (``"start"``);
@@ -59,4 +61,5 @@ def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
             raise ValueError(f"pins[{k}]: a clamped body pin (clamp=True, kind='body') is not supported by model "
                              "'cosserat' yet; clamp it in the world or to a gripper, or use model 'xpbd'")
     return Rules(verlet_start=False, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0, k_stretch=1.0, k_bend=1.0,
-                 k_clamp=1.0, bending="none", rod_compliance=compliances(scene))
+                 k_clamp=1.0, bending="none", rod_compliance=compliances(scene),
+                 rod_limp=max(*scene.cable.bending_stiffnesses, scene.cable.torsion_stiffness) <= _LIMP)

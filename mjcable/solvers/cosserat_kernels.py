@@ -43,6 +43,7 @@ import math
 import numpy as np
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.cosserat_direct_kernels import rod_direct_limp
 from mjcable.solvers.direct_kernels import banded_ldlt_solve
 from mjcable.solvers.kernels_layout import ORDER_DIRECT
 
@@ -500,7 +501,10 @@ def rod_iterate(S):
     """One iteration of the rod's constraints in the configured order (direct or Gauss-Seidel)."""
     P = S.par[0]
     if P.order == ORDER_DIRECT:
-        rod_direct(S, P.h * P.h)
+        if P.rod_limp:
+            rod_direct_limp(S, P.h * P.h)
+        else:
+            rod_direct(S, P.h * P.h)
     else:
         rod_gauss_seidel(S, P.h * P.h)
 

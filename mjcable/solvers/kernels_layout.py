@@ -118,6 +118,9 @@ PARAMS = np.dtype([
     # bend–twist rows (bend about d₁, bend about d₂, twist; 1/(N·m³))
     ("ss_alpha1", "f8"), ("ss_alpha2", "f8"), ("ss_alpha3", "f8"),
     ("bt_alpha1", "f8"), ("bt_alpha2", "f8"), ("bt_alpha3", "f8"),
+    # whether the rod is limp (E·I = G·J = 0): its direct solve is over the stretch–shear rows alone
+    # (cosserat_direct_kernels)
+    ("rod_limp", "?"),
 ])
 
 

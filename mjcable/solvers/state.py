@@ -52,6 +52,8 @@ class Rules:
       rod_compliance: a Cosserat rod's six compliances (stretch–shear: shear, shear, stretch in 1/(N·m);
         bend–twist: bend, bend, twist in 1/(N·m³); :mod:`mjcable.solvers.cosserat_kernels`), which gives every
         segment a material frame; ``None``: no frames (the state's frame fields are empty).
+      rod_limp: the rod has neither bending nor torsion stiffness: its direct solve leaves out the bend–twist rows
+        (:mod:`mjcable.solvers.cosserat_direct_kernels`), as ``xpbd`` leaves out bending at E = 0.
     """
 
     verlet_start: bool
@@ -66,6 +68,7 @@ class Rules:
     direct_bending: bool = False
     geometric_stiffness: bool = False
     rod_compliance: Optional[tuple] = None
+    rod_limp: bool = False
 
 
 def _perpendiculars(axis: np.ndarray) -> np.ndarray:
@@ -222,6 +225,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         for name, value in zip(("ss_alpha1", "ss_alpha2", "ss_alpha3", "bt_alpha1", "bt_alpha2", "bt_alpha3"),
                                rules.rod_compliance):
             P[name] = value
+        P["rod_limp"] = rules.rod_limp
     return a
 
 

@@ -1,0 +1,165 @@
+"""The direct solve of a limp Cosserat rod, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`): a rod
+without bending or torsion stiffness (E·I = G·J = 0: a rope) has no bend–twist rows, as ``xpbd``'s chain has no
+bending rows at E = 0, and its direct solve ([D18]) is over the stretch–shear rows alone.
+
+Written in the world frame, those rows make a block-tridiagonal system with scalar off-diagonal blocks. With the
+notation of :mod:`mjcable.solvers.cosserat_kernels` (R = R(qᵢ), ū = Rᵀ (x_{i+1} − xᵢ) / l₀, D = diag(wq[i]),
+α̃ = α / h²), segment i's rows C = Rᵀ (x_{i+1} − xᵢ) / l₀ − e₃ are rotated by the constant R of their linearisation,
+C′ = R C (the same Newton step: (J W Jᵀ + α̃) Δλ = −C − α̃ λ with J′ = R J, α̃′ = R α̃ Rᵀ, Δλ′ = R Δλ). Then
+∇_{x_{i+1}} C′ = I / l₀ = −∇_{xᵢ} C′ and ∇_{bᵢ} C′ = R [ū]×, so that
+
+* the diagonal block is Aᵢᵢ = R ((wᵢ + w_{i+1}) / l₀² I + [ū]× D [ū]×ᵀ + α̃) Rᵀ (the material block, regularised
+  as in the banded solve, turned into the world frame), and
+* the block of neighbouring segments i − 1, i (sharing particle i) is A_{i,i−1} = −wᵢ / l₀² I,
+
+which block LU solves in one pass down the rod and one back, O(n) with 3 × 3 blocks: Sᵢ = Aᵢᵢ − cᵢ² S_{i−1}⁻¹,
+gᵢ = Sᵢ⁻¹ (rᵢ + cᵢ g_{i−1}) (cᵢ = wᵢ / l₀², rᵢ = R (−C − α̃ λ)), then Δλ′ᵢ = gᵢ + c_{i+1} Sᵢ⁻¹ Δλ′_{i+1}. The rows are
+then applied as in :func:`mjcable.solvers.cosserat_kernels.rod_direct`: λ += Rᵀ Δλ′, Δx_{i+1} = w_{i+1} Δλ′ / l₀,
+Δxᵢ = −wᵢ Δλ′ / l₀ (a held particle collects ±Δλ′ / l₀ in ``react``), δbᵢ = D [ū]×ᵀ Rᵀ Δλ′.
+
+The scratch lives in the banded solve's arrays (unused by this one): ``cs_band[i]`` holds Sᵢ⁻¹ (xx, yy, zz, xy, xz,
+yz) and gᵢ, ``cs_band[n + i]`` R row by row, ``cs_band[2n + i, :3]`` ū.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+
+__all__ = ["rod_direct_limp"]
+
+# Relative compliance added to the diagonal of every row, as in the banded solve (cosserat_kernels._REGULARIZATION)
+_REGULARIZATION = 1e-10
+
+
+@_inline
+def _push(x, react, wp, p, fx, fy, fz):
+    """Particle p moves by wp f; a held particle (wp = 0) also collects f in ``react`` (no else branch: measured
+    slower)."""
+    x[p, 0] += wp * fx
+    x[p, 1] += wp * fy
+    x[p, 2] += wp * fz
+    if wp == 0.0:
+        react[p, 0] += fx
+        react[p, 1] += fy
+        react[p, 2] += fz
+
+
+@_jit
+def rod_direct_limp(S, h2):
+    """One direct solve of a limp rod's stretch–shear rows (see the module docstring; ``h2`` = h², s²)."""
+    P = S.par[0]
+    inv_l0sq = P.inv_l0sq
+    inv_l0 = math.sqrt(inv_l0sq)
+    a0, a1, a2 = P.ss_alpha1 / h2, P.ss_alpha2 / h2, P.ss_alpha3 / h2
+    x, w, q, wq, lam, react, sc = S.x, S.w, S.q, S.wq, S.lam_ss, S.react, S.cs_band
+    n = q.shape[0]
+    gx = gy = gz = 0.0  # g_{i−1}
+    i00 = i11 = i22 = i01 = i02 = i12 = 0.0  # S_{i−1}⁻¹
+    for i in range(n):
+        qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        r00, r01, r02 = 1.0 - 2.0 * (qy * qy + qz * qz), 2.0 * (qx * qy - qw * qz), 2.0 * (qx * qz + qw * qy)
+        r10, r11, r12 = 2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qx * qx + qz * qz), 2.0 * (qy * qz - qw * qx)
+        r20, r21, r22 = 2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx), 1.0 - 2.0 * (qx * qx + qy * qy)
+        ux = (x[i + 1, 0] - x[i, 0]) * inv_l0
+        uy = (x[i + 1, 1] - x[i, 1]) * inv_l0
+        uz = (x[i + 1, 2] - x[i, 2]) * inv_l0
+        b0 = r00 * ux + r10 * uy + r20 * uz
+        b1 = r01 * ux + r11 * uy + r21 * uz
+        b2 = r02 * ux + r12 * uy + r22 * uz
+        m0 = -b0 - a0 * lam[i, 0]  # −C − α̃ λ (material)
+        m1 = -b1 - a1 * lam[i, 1]
+        m2 = -(b2 - 1.0) - a2 * lam[i, 2]
+        rx = r00 * m0 + r01 * m1 + r02 * m2
+        ry = r10 * m0 + r11 * m1 + r12 * m2
+        rz = r20 * m0 + r21 * m1 + r22 * m2
+        d0, d1, d2 = wq[i, 0], wq[i, 1], wq[i, 2]
+        s = (w[i] + w[i + 1]) * inv_l0sq
+        k00, k11, k22 = d1 * b2 * b2 + d2 * b1 * b1, d0 * b2 * b2 + d2 * b0 * b0, d0 * b1 * b1 + d1 * b0 * b0
+        k01, k02, k12 = -d2 * b0 * b1, -d1 * b0 * b2, -d0 * b1 * b2  # [ū]× D [ū]×ᵀ
+        k00 += a0 + _REGULARIZATION * (s + k00)  # + α̃ + the regularisation; s I is added after the turn
+        k11 += a1 + _REGULARIZATION * (s + k11)
+        k22 += a2 + _REGULARIZATION * (s + k22)
+        t00 = r00 * k00 + r01 * k01 + r02 * k02  # T = R K
+        t01 = r00 * k01 + r01 * k11 + r02 * k12
+        t02 = r00 * k02 + r01 * k12 + r02 * k22
+        t10 = r10 * k00 + r11 * k01 + r12 * k02
+        t11 = r10 * k01 + r11 * k11 + r12 * k12
+        t12 = r10 * k02 + r11 * k12 + r12 * k22
+        t20 = r20 * k00 + r21 * k01 + r22 * k02
+        t21 = r20 * k01 + r21 * k11 + r22 * k12
+        t22 = r20 * k02 + r21 * k12 + r22 * k22
+        A00 = s + t00 * r00 + t01 * r01 + t02 * r02  # A = s I + T Rᵀ
+        A11 = s + t10 * r10 + t11 * r11 + t12 * r12
+        A22 = s + t20 * r20 + t21 * r21 + t22 * r22
+        A01 = t00 * r10 + t01 * r11 + t02 * r12
+        A02 = t00 * r20 + t01 * r21 + t02 * r22
+        A12 = t10 * r20 + t11 * r21 + t12 * r22
+        if i > 0:  # the Schur complement of the segment before (sharing particle i)
+            c = w[i] * inv_l0sq
+            cc = c * c
+            A00 -= cc * i00
+            A11 -= cc * i11
+            A22 -= cc * i22
+            A01 -= cc * i01
+            A02 -= cc * i02
+            A12 -= cc * i12
+            rx += c * gx
+            ry += c * gy
+            rz += c * gz
+        c00 = A11 * A22 - A12 * A12  # S⁻¹ by cofactors; 0 where S is singular (a fully held segment)
+        c01 = A12 * A02 - A01 * A22
+        c02 = A01 * A12 - A11 * A02
+        det = A00 * c00 + A01 * c01 + A02 * c02
+        inv = 0.0 if det == 0.0 else 1.0 / det
+        i00, i01, i02 = c00 * inv, c01 * inv, c02 * inv
+        i11 = (A00 * A22 - A02 * A02) * inv
+        i12 = (A02 * A01 - A00 * A12) * inv
+        i22 = (A00 * A11 - A01 * A01) * inv
+        gx = i00 * rx + i01 * ry + i02 * rz
+        gy = i01 * rx + i11 * ry + i12 * rz
+        gz = i02 * rx + i12 * ry + i22 * rz
+        sc[i, 0], sc[i, 1], sc[i, 2], sc[i, 3], sc[i, 4], sc[i, 5] = i00, i11, i22, i01, i02, i12
+        sc[i, 6], sc[i, 7], sc[i, 8] = gx, gy, gz
+        j = n + i
+        sc[j, 0], sc[j, 1], sc[j, 2], sc[j, 3], sc[j, 4] = r00, r01, r02, r10, r11
+        sc[j, 5], sc[j, 6], sc[j, 7], sc[j, 8] = r12, r20, r21, r22
+        j += n
+        sc[j, 0], sc[j, 1], sc[j, 2] = b0, b1, b2
+    lx = ly = lz = 0.0  # Δλ′_{i+1}
+    px = py = pz = 0.0  # Δλ′_{i+1} / l₀: particle i + 1's share from segment i + 1
+    for i in range(n - 1, -1, -1):
+        if i < n - 1:
+            c = w[i + 1] * inv_l0sq
+            lx, ly, lz = c * lx, c * ly, c * lz
+            lx, ly, lz = (sc[i, 6] + sc[i, 0] * lx + sc[i, 3] * ly + sc[i, 4] * lz,
+                          sc[i, 7] + sc[i, 3] * lx + sc[i, 1] * ly + sc[i, 5] * lz,
+                          sc[i, 8] + sc[i, 4] * lx + sc[i, 5] * ly + sc[i, 2] * lz)
+        else:
+            lx, ly, lz = sc[i, 6], sc[i, 7], sc[i, 8]
+        j = n + i
+        m0 = sc[j, 0] * lx + sc[j, 3] * ly + sc[j, 6] * lz  # Δλ = Rᵀ Δλ′ (material)
+        m1 = sc[j, 1] * lx + sc[j, 4] * ly + sc[j, 7] * lz
+        m2 = sc[j, 2] * lx + sc[j, 5] * ly + sc[j, 8] * lz
+        lam[i, 0] += m0
+        lam[i, 1] += m1
+        lam[i, 2] += m2
+        fx, fy, fz = lx * inv_l0, ly * inv_l0, lz * inv_l0
+        _push(x, react, w[i + 1], i + 1, fx - px, fy - py, fz - pz)  # segments i and i + 1 share particle i + 1
+        px, py, pz = fx, fy, fz
+        j += n
+        b0, b1, b2 = sc[j, 0], sc[j, 1], sc[j, 2]
+        bx = wq[i, 0] * (b2 * m1 - b1 * m2)  # δb = D [ū]×ᵀ Δλ
+        by = wq[i, 1] * (b0 * m2 - b2 * m0)
+        bz = wq[i, 2] * (b1 * m0 - b0 * m1)
+        qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]  # q ← q ⊗ (1, δb/2), normalised
+        hx, hy, hz = 0.5 * bx, 0.5 * by, 0.5 * bz
+        nw = qw - qx * hx - qy * hy - qz * hz
+        nx = qx + qw * hx + qy * hz - qz * hy
+        ny = qy + qw * hy - qx * hz + qz * hx
+        nz = qz + qw * hz + qx * hy - qy * hx
+        inv = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = nw * inv, nx * inv, ny * inv, nz * inv
+    _push(x, react, w[0], 0, -px, -py, -pz)
+    P.direct_solves += 1
