@@ -163,3 +163,86 @@ def rod_direct_limp(S, h2):
         q[i, 0], q[i, 1], q[i, 2], q[i, 3] = nw * inv, nx * inv, ny * inv, nz * inv
     _push(x, react, w[0], 0, -px, -py, -pz)
     P.direct_solves += 1
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The general rod's system: 3 × 3 blocks with two blocks below the diagonal.
+
+
+@_inline
+def _at(band, k, j, a, b):
+    """Entry (a, b) of block (k, j), k ≥ j, of a matrix in lower band storage (band[i, i − m] = A[i, m]; the
+    diagonal block's upper triangle read from its lower one)."""
+    if k == j and b > a:
+        a, b = b, a
+    return band[3 * k + a, 3 * (k - j) + a - b]
+
+
+@_inline
+def _set(band, k, j, a, b, value):
+    band[3 * k + a, 3 * (k - j) + a - b] = value
+
+
+@_jit
+def block_ldlt_solve(band, rhs, t):
+    """Solve A y = rhs in place for a symmetric positive definite A of 3 × 3 blocks (k, j) that vanish for
+    k − j > 2, in lower band storage of half-bandwidth 8 (:func:`mjcable.solvers.direct_kernels.banded_ldlt_solve`'s),
+    by block LDLᵀ without pivoting (O(blocks), about half the scalar banded LDLᵀ's work: no zeros inside the
+    blocks' band are visited). ``band`` is overwritten by L's blocks L_{k,k−1}, L_{k,k−2} and, in the diagonal
+    block's lower triangle, D_k⁻¹; ``t`` is (5, 3, 3) scratch. With W_{k,j} = L_{k,j} D_j:
+    W_{k,k−2} = A_{k,k−2}, W_{k,k−1} = A_{k,k−1} − W_{k,k−2} L_{k−1,k−2}ᵀ, D_k = A_kk − Σ_j W_{k,j} L_{k,j}ᵀ."""
+    nb = rhs.shape[0] // 3
+    w2, w1, l2, l1 = t[0], t[1], t[2], t[3]
+    for k in range(nb):
+        for j in range(max(0, k - 2), k):  # W_{k,j}, then L_{k,j} = W_{k,j} D_j⁻¹
+            W = w2 if j == k - 2 else w1
+            L = l2 if j == k - 2 else l1
+            for a in range(3):
+                for b in range(3):
+                    acc = _at(band, k, j, a, b)
+                    if j == k - 1 and k >= 2:  # − W_{k,k−2} L_{k−1,k−2}ᵀ
+                        for c in range(3):
+                            acc -= w2[a, c] * _at(band, k - 1, k - 2, b, c)
+                    W[a, b] = acc
+            for a in range(3):
+                for b in range(3):
+                    L[a, b] = W[a, 0] * _at(band, j, j, 0, b) + W[a, 1] * _at(band, j, j, 1, b) + \
+                        W[a, 2] * _at(band, j, j, 2, b)
+        for a in range(3):  # D_k, inverted into the diagonal block
+            for b in range(a + 1):
+                acc = _at(band, k, k, a, b)
+                for j in range(max(0, k - 2), k):
+                    W = w2 if j == k - 2 else w1
+                    L = l2 if j == k - 2 else l1
+                    for c in range(3):
+                        acc -= W[a, c] * L[b, c]
+                t[4, a, b] = acc
+        for j in range(max(0, k - 2), k):
+            L = l2 if j == k - 2 else l1
+            for a in range(3):
+                for b in range(3):
+                    _set(band, k, j, a, b, L[a, b])
+        D = t[4]
+        c00 = D[1, 1] * D[2, 2] - D[2, 1] * D[2, 1]
+        c01 = D[2, 1] * D[2, 0] - D[1, 0] * D[2, 2]
+        c02 = D[1, 0] * D[2, 1] - D[1, 1] * D[2, 0]
+        inv = 1.0 / (D[0, 0] * c00 + D[1, 0] * c01 + D[2, 0] * c02)
+        _set(band, k, k, 0, 0, c00 * inv)
+        _set(band, k, k, 1, 0, c01 * inv)
+        _set(band, k, k, 2, 0, c02 * inv)
+        _set(band, k, k, 1, 1, (D[0, 0] * D[2, 2] - D[2, 0] * D[2, 0]) * inv)
+        _set(band, k, k, 2, 1, (D[2, 0] * D[1, 0] - D[0, 0] * D[2, 1]) * inv)
+        _set(band, k, k, 2, 2, (D[0, 0] * D[1, 1] - D[1, 0] * D[1, 0]) * inv)
+    for k in range(nb):  # L y = rhs
+        for j in range(max(0, k - 2), k):
+            for a in range(3):
+                rhs[3 * k + a] -= (_at(band, k, j, a, 0) * rhs[3 * j] + _at(band, k, j, a, 1) * rhs[3 * j + 1]
+                                   + _at(band, k, j, a, 2) * rhs[3 * j + 2])
+    for k in range(nb - 1, -1, -1):  # y ← D⁻¹ y − Σ L_{m,k}ᵀ y_m (m = k + 1, k + 2)
+        y0, y1, y2 = rhs[3 * k], rhs[3 * k + 1], rhs[3 * k + 2]
+        for a in range(3):
+            acc = _at(band, k, k, a, 0) * y0 + _at(band, k, k, a, 1) * y1 + _at(band, k, k, a, 2) * y2
+            for m in range(k + 1, min(nb, k + 3)):
+                acc -= (_at(band, m, k, 0, a) * rhs[3 * m] + _at(band, m, k, 1, a) * rhs[3 * m + 1]
+                        + _at(band, m, k, 2, a) * rhs[3 * m + 2])
+            rhs[3 * k + a] = acc

@@ -25,8 +25,9 @@ tangent at the particle, as the beam's clamped boundary, rather than half a segm
 collects R_c ∇_c Cᵀ Δλ in ``clamp_react`` (world), so that its torque on the rod is −clamp_react / h².
 
 The direct solve orders the rows per segment, [start clamp, ss₀, bt₀, ss₁, bt₁, …, end clamp] (three each), which makes J W Jᵀ a banded
-matrix of half-bandwidth 8 ([D18] §4: a chain is a tree whose elimination order has no fill-in), solved with
-:func:`mjcable.solvers.direct_kernels.banded_ldlt_solve`; one solve per iteration is Newton's step on the constraints
+matrix of half-bandwidth 8, 3 × 3 blocks with two below the diagonal ([D18] §4: a chain is a tree whose elimination
+order has no fill-in), solved with :func:`mjcable.solvers.cosserat_direct_kernels.block_ldlt_solve` (a limp rod's,
+without bend–twist rows, with :func:`mjcable.solvers.cosserat_direct_kernels.rod_direct_limp`); one solve per iteration is Newton's step on the constraints
 (exact where they are linear). Rows with α = 0 get a relative compliance of ``_REGULARIZATION``.
 
 Frames are predicted with q ← q + (h/2) q ⊗ (0, ω) normalised (ω in the body frame, gyroscopic term
@@ -43,8 +44,7 @@ import math
 import numpy as np
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.cosserat_direct_kernels import rod_direct_limp
-from mjcable.solvers.direct_kernels import banded_ldlt_solve
+from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve, rod_direct_limp
 from mjcable.solvers.kernels_layout import ORDER_DIRECT
 
 __all__ = ["frames_begin", "frames_end", "rod_iterate", "rod_gauss_seidel", "rod_direct"]
@@ -52,7 +52,6 @@ __all__ = ["frames_begin", "frames_end", "rod_iterate", "rod_gauss_seidel", "rod
 # Relative compliance added to the diagonal of every row of the direct solve (an inextensible rod's α = 0 rows):
 # far below any physical compliance, it keeps J W Jᵀ positive definite where a held end makes rows redundant.
 _REGULARIZATION = 1e-10
-_BANDWIDTH = 8  # the half-bandwidth of the rows [ss₀, bt₀, ss₁, …]: ss_{i+1}'s last row to ssᵢ's first
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -251,11 +250,10 @@ def _particle_push(S, out, p, sign, R, l0, l1, l2, inv_l0):
     gy = sign * (R[1, 0] * l0 + R[1, 1] * l1 + R[1, 2] * l2) * inv_l0
     gz = sign * (R[2, 0] * l0 + R[2, 1] * l1 + R[2, 2] * l2) * inv_l0
     wp = S.w[p]
-    if wp > 0.0:
-        out[p, 0] += wp * gx
-        out[p, 1] += wp * gy
-        out[p, 2] += wp * gz
-    else:
+    out[p, 0] += wp * gx  # (no else branch for the held particle: measured slower)
+    out[p, 1] += wp * gy
+    out[p, 2] += wp * gz
+    if wp == 0.0:
         S.react[p, 0] += gx
         S.react[p, 1] += gy
         S.react[p, 2] += gz
@@ -455,13 +453,13 @@ def _assemble(S, h2, M):
 @_jit
 def rod_direct(S, h2):
     """One direct solve of all the rod's constraints ([D18]): linearise and assemble (:func:`_assemble`), solve for
-    Δλ with a banded LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²)."""
+    Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²)."""
     P = S.par[0]
     inv_l0 = math.sqrt(P.inv_l0sq)
-    M = np.empty((3, 3))
-    _assemble(S, h2, M)
+    t = np.empty((5, 3, 3))
+    _assemble(S, h2, t[0])
     rhs = S.cs_rhs
-    banded_ldlt_solve(S.cs_band, rhs, _BANDWIDTH)
+    block_ldlt_solve(S.cs_band, rhs, t)
     lam_ss, lam_bt, lam_end = S.lam_ss, S.lam_bt, S.lam_end
     n = lam_ss.shape[0]
     dx, db = S.dx, S.cs_db
