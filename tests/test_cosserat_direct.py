@@ -25,7 +25,7 @@ def test_block_ldlt_solves_a_block_banded_system_as_numpy_does(blocks):
             band[i, i - j] = a[i, j]
     rhs = rng.standard_normal(n)
     y = rhs.copy()
-    block_ldlt_solve(band, y, np.zeros((5, 3, 3)))
+    block_ldlt_solve(band, y, np.zeros((8, 3, 3)))
     np.testing.assert_allclose(y, np.linalg.solve(a, rhs), rtol=0.0, atol=1e-12)
 
 

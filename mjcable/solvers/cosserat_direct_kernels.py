@@ -170,17 +170,34 @@ def rod_direct_limp(S, h2):
 
 
 @_inline
-def _at(band, k, j, a, b):
-    """Entry (a, b) of block (k, j), k ≥ j, of a matrix in lower band storage (band[i, i − m] = A[i, m]; the
-    diagonal block's upper triangle read from its lower one)."""
-    if k == j and b > a:
-        a, b = b, a
-    return band[3 * k + a, 3 * (k - j) + a - b]
+def _mul_t(out, A, B):
+    """out ← A Bᵀ (3 × 3)."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = A[a, 0] * B[b, 0] + A[a, 1] * B[b, 1] + A[a, 2] * B[b, 2]
 
 
 @_inline
-def _set(band, k, j, a, b, value):
-    band[3 * k + a, 3 * (k - j) + a - b] = value
+def _sub_mul_t(out, A, B):
+    """out ← out − A Bᵀ (3 × 3)."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] -= A[a, 0] * B[b, 0] + A[a, 1] * B[b, 1] + A[a, 2] * B[b, 2]
+
+
+@_inline
+def _load(out, band, r, off):
+    """out ← the 3 × 3 block at rows r.. whose (a, b) entry is band[r + a, off + a − b] (off = 3 (k − j))."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = band[r + a, off + a - b]
+
+
+@_inline
+def _store(band, r, off, M):
+    for a in range(3):
+        for b in range(3):
+            band[r + a, off + a - b] = M[a, b]
 
 
 @_jit
@@ -189,60 +206,58 @@ def block_ldlt_solve(band, rhs, t):
     k − j > 2, in lower band storage of half-bandwidth 8 (:func:`mjcable.solvers.direct_kernels.banded_ldlt_solve`'s),
     by block LDLᵀ without pivoting (O(blocks), about half the scalar banded LDLᵀ's work: no zeros inside the
     blocks' band are visited). ``band`` is overwritten by L's blocks L_{k,k−1}, L_{k,k−2} and, in the diagonal
-    block's lower triangle, D_k⁻¹; ``t`` is (5, 3, 3) scratch. With W_{k,j} = L_{k,j} D_j:
+    block's lower triangle, D_k⁻¹; ``t`` is (8, 3, 3) scratch. With W_{k,j} = L_{k,j} D_j (D_j symmetric):
     W_{k,k−2} = A_{k,k−2}, W_{k,k−1} = A_{k,k−1} − W_{k,k−2} L_{k−1,k−2}ᵀ, D_k = A_kk − Σ_j W_{k,j} L_{k,j}ᵀ."""
     nb = rhs.shape[0] // 3
-    w2, w1, l2, l1 = t[0], t[1], t[2], t[3]
+    w2, w1, l2, l1, d, e2, e1, p1 = t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7]  # e: D⁻¹; p1: L_{k−1,k−2}
     for k in range(nb):
-        for j in range(max(0, k - 2), k):  # W_{k,j}, then L_{k,j} = W_{k,j} D_j⁻¹
-            W = w2 if j == k - 2 else w1
-            L = l2 if j == k - 2 else l1
-            for a in range(3):
-                for b in range(3):
-                    acc = _at(band, k, j, a, b)
-                    if j == k - 1 and k >= 2:  # − W_{k,k−2} L_{k−1,k−2}ᵀ
-                        for c in range(3):
-                            acc -= w2[a, c] * _at(band, k - 1, k - 2, b, c)
-                    W[a, b] = acc
-            for a in range(3):
-                for b in range(3):
-                    L[a, b] = W[a, 0] * _at(band, j, j, 0, b) + W[a, 1] * _at(band, j, j, 1, b) + \
-                        W[a, 2] * _at(band, j, j, 2, b)
-        for a in range(3):  # D_k, inverted into the diagonal block
-            for b in range(a + 1):
-                acc = _at(band, k, k, a, b)
-                for j in range(max(0, k - 2), k):
-                    W = w2 if j == k - 2 else w1
-                    L = l2 if j == k - 2 else l1
-                    for c in range(3):
-                        acc -= W[a, c] * L[b, c]
-                t[4, a, b] = acc
-        for j in range(max(0, k - 2), k):
-            L = l2 if j == k - 2 else l1
-            for a in range(3):
-                for b in range(3):
-                    _set(band, k, j, a, b, L[a, b])
-        D = t[4]
-        c00 = D[1, 1] * D[2, 2] - D[2, 1] * D[2, 1]
-        c01 = D[2, 1] * D[2, 0] - D[1, 0] * D[2, 2]
-        c02 = D[1, 0] * D[2, 1] - D[1, 1] * D[2, 0]
-        inv = 1.0 / (D[0, 0] * c00 + D[1, 0] * c01 + D[2, 0] * c02)
-        _set(band, k, k, 0, 0, c00 * inv)
-        _set(band, k, k, 1, 0, c01 * inv)
-        _set(band, k, k, 2, 0, c02 * inv)
-        _set(band, k, k, 1, 1, (D[0, 0] * D[2, 2] - D[2, 0] * D[2, 0]) * inv)
-        _set(band, k, k, 2, 1, (D[2, 0] * D[1, 0] - D[0, 0] * D[2, 1]) * inv)
-        _set(band, k, k, 2, 2, (D[0, 0] * D[1, 1] - D[1, 0] * D[1, 0]) * inv)
-    for k in range(nb):  # L y = rhs
-        for j in range(max(0, k - 2), k):
-            for a in range(3):
-                rhs[3 * k + a] -= (_at(band, k, j, a, 0) * rhs[3 * j] + _at(band, k, j, a, 1) * rhs[3 * j + 1]
-                                   + _at(band, k, j, a, 2) * rhs[3 * j + 2])
-    for k in range(nb - 1, -1, -1):  # y ← D⁻¹ y − Σ L_{m,k}ᵀ y_m (m = k + 1, k + 2)
-        y0, y1, y2 = rhs[3 * k], rhs[3 * k + 1], rhs[3 * k + 2]
+        r = 3 * k
         for a in range(3):
-            acc = _at(band, k, k, a, 0) * y0 + _at(band, k, k, a, 1) * y1 + _at(band, k, k, a, 2) * y2
-            for m in range(k + 1, min(nb, k + 3)):
-                acc -= (_at(band, m, k, 0, a) * rhs[3 * m] + _at(band, m, k, 1, a) * rhs[3 * m + 1]
-                        + _at(band, m, k, 2, a) * rhs[3 * m + 2])
-            rhs[3 * k + a] = acc
+            for b in range(a + 1):
+                d[a, b] = d[b, a] = band[r + a, a - b]
+        if k >= 2:
+            _load(w2, band, r, 6)
+            _mul_t(l2, w2, e2)  # (e2 symmetric: W D⁻¹ = W D⁻ᵀ)
+            _sub_mul_t(d, w2, l2)
+            _store(band, r, 6, l2)
+        if k >= 1:
+            _load(w1, band, r, 3)
+            if k >= 2:
+                _sub_mul_t(w1, w2, p1)
+            _mul_t(l1, w1, e1)
+            _sub_mul_t(d, w1, l1)
+            _store(band, r, 3, l1)
+            p1[:, :] = l1
+        e2[:, :] = e1
+        c00 = d[1, 1] * d[2, 2] - d[2, 1] * d[2, 1]
+        c01 = d[2, 1] * d[2, 0] - d[1, 0] * d[2, 2]
+        c02 = d[1, 0] * d[2, 1] - d[1, 1] * d[2, 0]
+        inv = 1.0 / (d[0, 0] * c00 + d[1, 0] * c01 + d[2, 0] * c02)
+        e1[0, 0], e1[0, 1], e1[0, 2] = c00 * inv, c01 * inv, c02 * inv
+        e1[1, 1] = (d[0, 0] * d[2, 2] - d[2, 0] * d[2, 0]) * inv
+        e1[1, 2] = (d[2, 0] * d[1, 0] - d[0, 0] * d[2, 1]) * inv
+        e1[2, 2] = (d[0, 0] * d[1, 1] - d[1, 0] * d[1, 0]) * inv
+        e1[1, 0], e1[2, 0], e1[2, 1] = e1[0, 1], e1[0, 2], e1[1, 2]
+        for a in range(3):
+            for b in range(a + 1):
+                band[r + a, a - b] = e1[a, b]
+    for k in range(nb):  # L y = rhs
+        r = 3 * k
+        for j in range(max(0, k - 2), k):
+            off, rj = r - 3 * j, 3 * j
+            for a in range(3):
+                rhs[r + a] -= (band[r + a, off + a] * rhs[rj] + band[r + a, off + a - 1] * rhs[rj + 1]
+                               + band[r + a, off + a - 2] * rhs[rj + 2])
+    for k in range(nb - 1, -1, -1):  # y ← D⁻¹ y − Σ L_{m,k}ᵀ y_m (m = k + 1, k + 2)
+        r = 3 * k
+        y0, y1, y2 = rhs[r], rhs[r + 1], rhs[r + 2]
+        z0 = band[r, 0] * y0 + band[r + 1, 1] * y1 + band[r + 2, 2] * y2
+        z1 = band[r + 1, 1] * y0 + band[r + 1, 0] * y1 + band[r + 2, 1] * y2
+        z2 = band[r + 2, 2] * y0 + band[r + 2, 1] * y1 + band[r + 2, 0] * y2
+        for m in range(k + 1, min(nb, k + 3)):
+            rm, off = 3 * m, 3 * (m - k)
+            x0, x1, x2 = rhs[rm], rhs[rm + 1], rhs[rm + 2]
+            z0 -= band[rm, off] * x0 + band[rm + 1, off + 1] * x1 + band[rm + 2, off + 2] * x2
+            z1 -= band[rm, off - 1] * x0 + band[rm + 1, off] * x1 + band[rm + 2, off + 1] * x2
+            z2 -= band[rm, off - 2] * x0 + band[rm + 1, off - 1] * x1 + band[rm + 2, off] * x2
+        rhs[r], rhs[r + 1], rhs[r + 2] = z0, z1, z2

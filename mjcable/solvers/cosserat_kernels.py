@@ -456,7 +456,7 @@ def rod_direct(S, h2):
     Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²)."""
     P = S.par[0]
     inv_l0 = math.sqrt(P.inv_l0sq)
-    t = np.empty((5, 3, 3))
+    t = np.empty((8, 3, 3))
     _assemble(S, h2, t[0])
     rhs = S.cs_rhs
     block_ldlt_solve(S.cs_band, rhs, t)
