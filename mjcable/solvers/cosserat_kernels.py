@@ -159,50 +159,49 @@ def _end_on(S, e):
 
 
 @_inline
-def _block(out, J1, D1, J2, scale):
-    """out ← out + scale · J1 diag(D1) J2ᵀ (3×3)."""
+def _block(out, jac, k1, wq, i, k2):
+    """out ← out + J₁ diag(wq[i]) J₂ᵀ (3×3), J₁ = jac[k1], J₂ = jac[k2] (indices, not views: no reference counts
+    in the loops)."""
+    d0, d1, d2 = wq[i, 0], wq[i, 1], wq[i, 2]
     for a in range(3):
         for b in range(3):
-            acc = 0.0
-            for k in range(3):
-                acc += J1[a, k] * D1[k] * J2[b, k]
-            out[a, b] += scale * acc
+            out[a, b] += jac[k1, a, 0] * d0 * jac[k2, b, 0] + jac[k1, a, 1] * d1 * jac[k2, b, 1] + \
+                jac[k1, a, 2] * d2 * jac[k2, b, 2]
 
 
 @_inline
-def _block_ss_ss(out, R1, R2, w):
-    """out ← out − w R1ᵀ R2 (the stretch–shear rows of neighbouring segments share a particle of inverse mass w;
-    the 1/l₀² is in w)."""
+def _block_ss_ss(out, jac, k1, k2, w):
+    """out ← out − w R1ᵀ R2 with R1 = jac[k1], R2 = jac[k2] (the stretch–shear rows of neighbouring segments share
+    a particle of inverse mass w; the 1/l₀² is in w)."""
     for a in range(3):
         for b in range(3):
-            out[a, b] -= w * (R1[0, a] * R2[0, b] + R1[1, a] * R2[1, b] + R1[2, a] * R2[2, b])
+            out[a, b] -= w * (jac[k1, 0, a] * jac[k2, 0, b] + jac[k1, 1, a] * jac[k2, 1, b]
+                              + jac[k1, 2, a] * jac[k2, 2, b])
 
 
 @_inline
-def _diag_ss(S, i, M, inv_l0sq):
+def _diag_ss(jac, w, wq, i, M, inv_l0sq):
     """M ← the stretch–shear block of J W Jᵀ, (wᵢ + w_{i+1}) / l₀² I + [ū]× D [ū]×ᵀ (without α̃)."""
     M[:, :] = 0.0
-    ws = (S.w[i] + S.w[i + 1]) * inv_l0sq
+    ws = (w[i] + w[i + 1]) * inv_l0sq
     M[0, 0] = M[1, 1] = M[2, 2] = ws
-    K = S.cs_jac[4 * i + 1]
-    _block(M, K, S.wq[i], K, 1.0)
+    _block(M, jac, 4 * i + 1, wq, i, 4 * i + 1)
 
 
 @_inline
-def _diag_bt(S, i, M):
+def _diag_bt(jac, wq, i, M):
     """M ← the bend–twist block of J W Jᵀ, ∇_{bᵢ}C Dᵢ ∇_{bᵢ}Cᵀ + ∇_{b_{i+1}}C D_{i+1} ∇_{b_{i+1}}Cᵀ (without α̃)."""
     M[:, :] = 0.0
-    _block(M, S.cs_jac[4 * i + 2], S.wq[i], S.cs_jac[4 * i + 2], 1.0)
-    _block(M, S.cs_jac[4 * i + 3], S.wq[i + 1], S.cs_jac[4 * i + 3], 1.0)
+    _block(M, jac, 4 * i + 2, wq, i, 4 * i + 2)
+    _block(M, jac, 4 * i + 3, wq, i + 1, 4 * i + 3)
 
 
 @_inline
-def _diag_end(S, e, M):
+def _diag_end(jac, wq, e, M):
     """M ← the clamp constraint's block of J W Jᵀ (only its segment's frame moves; without α̃)."""
-    n = S.q.shape[0]
+    n = wq.shape[0]
     M[:, :] = 0.0
-    J = S.cs_jac[4 * n + e]
-    _block(M, J, S.wq[0 if e == 0 else n - 1], J, 1.0)
+    _block(M, jac, 4 * n + e, wq, 0 if e == 0 else n - 1, 4 * n + e)
 
 
 @_inline
@@ -314,7 +313,7 @@ def _gs_end(S, e, M, a0, a1, a2, inv_half):
     """One Gauss-Seidel update of the clamp constraint at the rod's start (e = 0) or end (e = 1)."""
     lam = S.lam_end
     c0, c1, c2 = _linearise_end(S, e, inv_half)
-    _diag_end(S, e, M)
+    _diag_end(S.cs_jac, S.wq, e, M)
     d0, d1, d2 = _block_update(M, a0, a1, a2, lam, e, c0, c1, c2)
     _apply_end(S, e, d0, d1, d2, S.cs_db, True)
 
@@ -329,18 +328,18 @@ def rod_gauss_seidel(S, h2):
     M = np.empty((3, 3))
     a_ss = (P.ss_alpha1 / h2, P.ss_alpha2 / h2, P.ss_alpha3 / h2)
     a_bt = (P.bt_alpha1 / h2, P.bt_alpha2 / h2, P.bt_alpha3 / h2)
-    lam_ss, lam_bt = S.lam_ss, S.lam_bt
+    lam_ss, lam_bt, jac, w, wq = S.lam_ss, S.lam_bt, S.cs_jac, S.w, S.wq
     n = lam_ss.shape[0]
     if _end_on(S, 0):
         _gs_end(S, 0, M, 2.0 * a_bt[0], 2.0 * a_bt[1], 2.0 * a_bt[2], 2.0 * inv_l0)
     for i in range(n):
         c0, c1, c2 = _linearise_ss(S, i, inv_l0)
-        _diag_ss(S, i, M, P.inv_l0sq)
+        _diag_ss(jac, w, wq, i, M, P.inv_l0sq)
         d0, d1, d2 = _block_update(M, a_ss[0], a_ss[1], a_ss[2], lam_ss, i, c0, c1, c2)
         _apply_ss(S, i, d0, d1, d2, S.x, S.cs_db, True, inv_l0)
         if i < n - 1:
             c0, c1, c2 = _linearise_bt(S, i, inv_l0)
-            _diag_bt(S, i, M)
+            _diag_bt(jac, wq, i, M)
             d0, d1, d2 = _block_update(M, a_bt[0], a_bt[1], a_bt[2], lam_bt, i, c0, c1, c2)
             _apply_bt(S, i, d0, d1, d2, S.cs_db, True)
     if _end_on(S, 1):
@@ -401,52 +400,52 @@ def _assemble(S, h2, M):
             rhs[r] = -c0 - 2.0 * a_bt[0] * lam_end[e, 0]
             rhs[r + 1] = -c1 - 2.0 * a_bt[1] * lam_end[e, 1]
             rhs[r + 2] = -c2 - 2.0 * a_bt[2] * lam_end[e, 2]
-            _diag_end(S, e, M)
+            _diag_end(jac, wq, e, M)
             _put_diag(band, r, M, 2.0 * a_bt[0], 2.0 * a_bt[1], 2.0 * a_bt[2])
         else:
             band[r, 0] = band[r + 1, 0] = band[r + 2, 0] = 1.0
     for i in range(n):
         r = 3 + 6 * i
-        _diag_ss(S, i, M, inv_l0sq)
+        _diag_ss(jac, w, wq, i, M, inv_l0sq)
         _put_diag(band, r, M, a_ss[0], a_ss[1], a_ss[2])
         if i > 0:  # ss_{i−1} shares particle i; bt_{i−1} shares frame i
             M[:, :] = 0.0
-            _block_ss_ss(M, jac[4 * i], jac[4 * (i - 1)], w[i] * inv_l0sq)
+            _block_ss_ss(M, jac, 4 * i, 4 * (i - 1), w[i] * inv_l0sq)
             _put(band, r, r - 6, M, False)
             M[:, :] = 0.0
-            _block(M, jac[4 * i + 1], wq[i], jac[4 * (i - 1) + 3], 1.0)
+            _block(M, jac, 4 * i + 1, wq, i, 4 * (i - 1) + 3)
             _put(band, r, r - 3, M, False)
         if i < n - 1:
             rb = 6 + 6 * i
-            _diag_bt(S, i, M)
+            _diag_bt(jac, wq, i, M)
             _put_diag(band, rb, M, a_bt[0], a_bt[1], a_bt[2])
             M[:, :] = 0.0
-            _block(M, jac[4 * i + 2], wq[i], jac[4 * i + 1], 1.0)  # bt_i with ss_i (frame i)
+            _block(M, jac, 4 * i + 2, wq, i, 4 * i + 1)  # bt_i with ss_i (frame i)
             _put(band, rb, r, M, False)
             if i > 0:  # bt_i with bt_{i−1} (frame i)
                 M[:, :] = 0.0
-                _block(M, jac[4 * i + 2], wq[i], jac[4 * (i - 1) + 3], 1.0)
+                _block(M, jac, 4 * i + 2, wq, i, 4 * (i - 1) + 3)
                 _put(band, rb, rb - 6, M, False)
     if _end_on(S, 0):  # the start clamp's constraint shares frame 0 with ss₀ and bt₀
         M[:, :] = 0.0
-        _block(M, jac[1], wq[0], jac[4 * n], 1.0)
+        _block(M, jac, 1, wq, 0, 4 * n)
         _put(band, 3, 0, M, False)
         if n > 1:
             M[:, :] = 0.0
-            _block(M, jac[2], wq[0], jac[4 * n], 1.0)
+            _block(M, jac, 2, wq, 0, 4 * n)
             _put(band, 6, 0, M, False)
     if _end_on(S, 1):  # the end clamp's shares frame n − 1 with ss_{n−1}, bt_{n−2} (and, n = 1, the start's)
         r = 6 * n
         M[:, :] = 0.0
-        _block(M, jac[4 * n + 1], wq[n - 1], jac[4 * (n - 1) + 1], 1.0)
+        _block(M, jac, 4 * n + 1, wq, n - 1, 4 * (n - 1) + 1)
         _put(band, r, r - 3, M, False)
         if n > 1:
             M[:, :] = 0.0
-            _block(M, jac[4 * n + 1], wq[n - 1], jac[4 * (n - 2) + 3], 1.0)
+            _block(M, jac, 4 * n + 1, wq, n - 1, 4 * (n - 2) + 3)
             _put(band, r, r - 6, M, False)
         elif _end_on(S, 0):
             M[:, :] = 0.0
-            _block(M, jac[4 * n + 1], wq[0], jac[4 * n], 1.0)
+            _block(M, jac, 4 * n + 1, wq, 0, 4 * n)
             _put(band, r, 0, M, False)
 
 
