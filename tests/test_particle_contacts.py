@@ -169,7 +169,7 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
 def _plane_contact(S):
     contact_kernels.reset_friction(S)
     contact_kernels.contact_sweep(S)
-    contact_kernels.friction_sweep(S)
+    contact_kernels.friction_sweep(S, False)
     contact_kernels.update_anchors(S)
 
 

@@ -213,25 +213,17 @@ def _to_world(shapes, row, qx, qy, qz):
             pos[row, 2] + rot[row, 2, 0] * qx + rot[row, 2, 1] * qy + rot[row, 2, 2] * qz)
 
 
-@_inline
-def _zero_sums(fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, p):
-    """Zero particle p's substep sums (the state's ``fric_*`` but ``fric_ob``, its obstacle, which is kept)."""
-    fric_n[p] = 0.0
-    fric_mu[p] = 0.0
-    fric_slid[p] = False
-    for c in range(3):
-        fric_nsum[p, c] = 0.0
-        fric_impulse[p, c] = 0.0
-        fric_normal[p, c] = 0.0
-
-
 @_jit
 def reset_friction(S):
     """Zero the substep's per-particle normal and friction sums (``fric_*``), keeping each particle's obstacle
     ``fric_ob``. The step drivers leave this to :func:`update_anchors` (which zeroes the rows it used); a Python
     caller of the sweeps calls it before each substep."""
-    for p in range(S.fric_n.shape[0]):
-        _zero_sums(S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum, S.fric_impulse, S.fric_normal, p)
+    S.fric_n[:] = 0.0
+    S.fric_mu[:] = 0.0
+    S.fric_slid[:] = False
+    S.fric_nsum[:, :] = 0.0
+    S.fric_impulse[:, :] = 0.0
+    S.fric_normal[:, :] = 0.0
 
 
 @_inline
@@ -359,11 +351,12 @@ def _friction_cones(S):
 
 
 @_inline
-def friction_sweep(S):
+def friction_sweep(S, finish):
     """Coulomb friction of every pressed particle against its anchor (module docstring): the friction sums
     (``fric_*``) from :func:`contact_sweep`, anchors ``anchor`` (N, 3) in the frame of obstacle ``anchor_ob`` (N,)
-    (world coordinates on a static obstacle)
-    (−1: none; a new anchor is set at the particle's substep start ``x0``). Held particles are skipped.
+    (world coordinates on a static obstacle; −1: none; a new anchor is set at the particle's substep start ``x0``).
+    Held particles are skipped. ``finish``: the substep's last sweep, which also ends each particle's substep
+    (:func:`update_anchors`, in the same pass).
 
     The cone is the particle's (:func:`_friction_cones`): its normal n̂ is the mean of its pressing contacts'
     normals, weighted by the particle's share of each (the bisector of two chords on a curve), its normal impulse
@@ -372,79 +365,94 @@ def friction_sweep(S):
     |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
     grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
     outside it)."""
-    _friction_cones(S)
-    x, x0, w, anchor, anchor_ob, moves = S.x, S.x0, S.w, S.anchor, S.anchor_ob, S.shape_moves
-    fric_slid, fric_impulse, fric_ob = S.fric_slid, S.fric_impulse, S.fric_ob
-    unit, push, cones = S.fric_unit, S.fric_push, S.fric_cone
-    shapes = shapes_of(S)
-    for p in range(x.shape[0]):
-        cone = cones[p]
-        if cone < 0.0:
-            continue
-        k = fric_ob[p]
-        nx, ny, nz = unit[p, 0], unit[p, 1], unit[p, 2]
-        tcx, tcy, tcz = push[p, 0], push[p, 1], push[p, 2]
-        static = not moves[k]  # a static obstacle's anchors are kept in world coordinates, a moving one's in its frame
-        if anchor_ob[p] != k:
-            if static:
-                anchor[p, 0], anchor[p, 1], anchor[p, 2] = x0[p, 0], x0[p, 1], x0[p, 2]
-            else:
-                anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
-            anchor_ob[p] = k
-        if static:
-            ax, ay, az = anchor[p, 0], anchor[p, 1], anchor[p, 2]
-        else:
-            ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
-        dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
-        dn = dx * nx + dy * ny + dz * nz
-        inv_w = 1.0 / w[p]
-        fx0, fy0, fz0 = fric_impulse[p, 0], fric_impulse[p, 1], fric_impulse[p, 2]
-        ex = -(dx - dn * nx) * inv_w  # the friction impulse that puts the particle back over its anchor
-        ey = -(dy - dn * ny) * inv_w
-        ez = -(dz - dn * nz) * inv_w
-        ux, uy, uz = tcx + fx0, tcy + fy0, tcz + fz0  # the tangential impulse so far
-        qa = ex * ex + ey * ey + ez * ez
-        qb = ux * ex + uy * ey + uz * ez
-        qc = ux * ux + uy * uy + uz * uz - cone * cone
-        # the largest share α ∈ [0, 1] of that impulse inside the cone: |u + α e|² = qc + 2 α qb + α² qa ≤ 0
-        if qc <= 0.0 and qa + 2.0 * qb + qc <= 0.0:  # all of it (the sticking particle: no root to take)
-            alpha = 1.0
-        elif qa <= 0.0:  # at its anchor already
-            continue
-        else:
-            alpha = 0.0 if qc > 0.0 else (-qb + math.sqrt(max(qb * qb - qa * qc, 0.0))) / qa
-            if alpha < 1.0:  # outside the cone: kinetic friction on its rim, and the particle slides
-                fric_slid[p] = True
-            else:
-                alpha = 1.0
-        fric_impulse[p, 0], fric_impulse[p, 1], fric_impulse[p, 2] = (fx0 + alpha * ex, fy0 + alpha * ey,
-                                                                      fz0 + alpha * ez)
-        g = w[p] * alpha
-        x[p, 0] += g * ex
-        x[p, 1] += g * ey
-        x[p, 2] += g * ez
+    _particle_sweep(S, True, finish)
 
 
 @_inline
 def update_anchors(S):
     """End of a substep: drop the anchors of particles that no longer press, move those of sliding particles to
     where they are now (in their obstacle's frame; the world's for a static one), and zero the substep's sums
-    (:func:`reset_friction`) of the particles that had contacts."""
-    x, anchor, anchor_ob, moves = S.x, S.anchor, S.anchor_ob, S.shape_moves
+    (:func:`reset_friction`) of the particles that had contacts. (The substep's last :func:`friction_sweep` does
+    this in its own pass when nothing reads the sums after it.)"""
+    _particle_sweep(S, False, True)
+
+
+@_inline
+def _particle_sweep(S, friction, finish):
+    """One pass over the particles: with ``friction``, :func:`friction_sweep`'s (its cones first); with
+    ``finish``, each particle's end of the substep (:func:`update_anchors`) right after its friction, in the same
+    pass (one pass less over the particles per substep: ``docs/measurements.md``)."""
+    if friction:
+        _friction_cones(S)
+    x, x0, w, anchor, anchor_ob, moves = S.x, S.x0, S.w, S.anchor, S.anchor_ob, S.shape_moves
     fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal = (S.fric_n, S.fric_mu, S.fric_slid, S.fric_nsum,
                                                                         S.fric_impulse, S.fric_normal)
+    fric_ob = S.fric_ob
+    unit, push, cones = S.fric_unit, S.fric_push, S.fric_cone
     shapes = shapes_of(S)
     for p in range(x.shape[0]):
-        if fric_n[p] <= 0.0:
-            anchor_ob[p] = -1
-            continue
-        k = anchor_ob[p]
-        if k >= 0 and fric_slid[p]:
-            if moves[k]:
-                anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x[p, 0], x[p, 1], x[p, 2])
+        cone = cones[p] if friction else -1.0
+        if cone >= 0.0:
+            k = fric_ob[p]
+            nx, ny, nz = unit[p, 0], unit[p, 1], unit[p, 2]
+            tcx, tcy, tcz = push[p, 0], push[p, 1], push[p, 2]
+            # a static obstacle's anchors are kept in world coordinates, a moving one's in its frame
+            static = not moves[k]
+            if anchor_ob[p] != k:
+                if static:
+                    anchor[p, 0], anchor[p, 1], anchor[p, 2] = x0[p, 0], x0[p, 1], x0[p, 2]
+                else:
+                    anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x0[p, 0], x0[p, 1], x0[p, 2])
+                anchor_ob[p] = k
+            if static:
+                ax, ay, az = anchor[p, 0], anchor[p, 1], anchor[p, 2]
             else:
-                anchor[p, 0], anchor[p, 1], anchor[p, 2] = x[p, 0], x[p, 1], x[p, 2]
-        _zero_sums(fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_normal, p)
+                ax, ay, az = _to_world(shapes, k, anchor[p, 0], anchor[p, 1], anchor[p, 2])
+            dx, dy, dz = x[p, 0] - ax, x[p, 1] - ay, x[p, 2] - az
+            dn = dx * nx + dy * ny + dz * nz
+            inv_w = 1.0 / w[p]
+            fx0, fy0, fz0 = fric_impulse[p, 0], fric_impulse[p, 1], fric_impulse[p, 2]
+            ex = -(dx - dn * nx) * inv_w  # the friction impulse that puts the particle back over its anchor
+            ey = -(dy - dn * ny) * inv_w
+            ez = -(dz - dn * nz) * inv_w
+            ux, uy, uz = tcx + fx0, tcy + fy0, tcz + fz0  # the tangential impulse so far
+            qa = ex * ex + ey * ey + ez * ez
+            qb = ux * ex + uy * ey + uz * ez
+            qc = ux * ux + uy * uy + uz * uz - cone * cone
+            # the largest share α ∈ [0, 1] of that impulse inside the cone: |u + α e|² = qc + 2 α qb + α² qa ≤ 0
+            if qc <= 0.0 and qa + 2.0 * qb + qc <= 0.0:  # all of it (the sticking particle: no root to take)
+                alpha = 1.0
+            elif qa <= 0.0:  # at its anchor already
+                alpha = 0.0
+            else:
+                alpha = 0.0 if qc > 0.0 else (-qb + math.sqrt(max(qb * qb - qa * qc, 0.0))) / qa
+                if alpha < 1.0:  # outside the cone: kinetic friction on its rim, and the particle slides
+                    fric_slid[p] = True
+                else:
+                    alpha = 1.0
+            fric_impulse[p, 0], fric_impulse[p, 1], fric_impulse[p, 2] = (fx0 + alpha * ex, fy0 + alpha * ey,
+                                                                          fz0 + alpha * ez)
+            g = w[p] * alpha
+            x[p, 0] += g * ex
+            x[p, 1] += g * ey
+            x[p, 2] += g * ez
+        if finish:  # (written out here: an inline helper taking these arrays would cost reference counting)
+            if fric_n[p] <= 0.0:
+                anchor_ob[p] = -1
+                continue
+            k = anchor_ob[p]
+            if k >= 0 and fric_slid[p]:
+                if moves[k]:
+                    anchor[p, 0], anchor[p, 1], anchor[p, 2] = _to_local(shapes, k, x[p, 0], x[p, 1], x[p, 2])
+                else:
+                    anchor[p, 0], anchor[p, 1], anchor[p, 2] = x[p, 0], x[p, 1], x[p, 2]
+            fric_n[p] = 0.0
+            fric_mu[p] = 0.0
+            fric_slid[p] = False
+            for c in range(3):
+                fric_nsum[p, c] = 0.0
+                fric_impulse[p, c] = 0.0
+                fric_normal[p, c] = 0.0
 
 
 @_inline

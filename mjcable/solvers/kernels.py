@@ -184,9 +184,10 @@ def _jacobi_counts(S):
 
 
 @_inline
-def iterate(S):
+def iterate(S, finish):
     """One constraint iteration in the configured order; contacts are projected sequentially last, so that they
-    hold exactly when the iteration ends."""
+    hold exactly when the iteration ends. ``finish``: the substep's last iteration, whose friction sweep also ends
+    the particles' substep (:func:`~mjcable.solvers.contact_kernels.update_anchors`)."""
     P = S.par[0]
     h2 = P.h * P.h
     at_s, at_b, at_c = P.alpha_s / h2, P.alpha_b / h2, P.alpha_c / h2
@@ -222,19 +223,19 @@ def iterate(S):
     n_con, n_self = P.n_con, P.n_self
     if n_con:
         contact_sweep(S)
-        friction_sweep(S)
+        friction_sweep(S, finish)
     if n_self:
         self_contact_sweep(S)
 
 
 @_inline
-def end_substep(S):
-    """Contact anchors (:func:`update_anchors`; before them, with two-way contacts, the contacts' impulses per
-    obstacle: :func:`collect_impulses`); v = (x − x₀)/h; the pins' forces and sockets that let go
-    (:func:`_pin_forces`). Returns the number released."""
+def end_substep(S, finished):
+    """Contact anchors (:func:`update_anchors`, unless the last iteration's friction sweep ``finished`` them;
+    before them, with two-way contacts, the contacts' impulses per obstacle: :func:`collect_impulses`);
+    v = (x − x₀)/h; the pins' forces and sockets that let go (:func:`_pin_forces`). Returns the number released."""
     P = S.par[0]
     x = S.x
-    if S.shape_type.shape[0]:
+    if S.shape_type.shape[0] and not finished:
         if S.impulse_force.shape[0]:  # two-way contacts (a user world's bodies): before update_anchors zeroes the sums
             collect_impulses(S)
         update_anchors(S)
@@ -332,9 +333,12 @@ def substep(S, sub, n_sub):
     if is_plain(S):
         return plain_substep(S, sub, n_sub)
     begin_substep(S, sub, n_sub)
-    for _ in range(S.par[0].iterations):
-        iterate(S)
-    return end_substep(S)
+    n_it = S.par[0].iterations
+    # the last friction sweep ends the particles' substep in its pass, unless two-way contacts read the sums after
+    finish = S.impulse_force.shape[0] == 0 and S.par[0].n_con > 0
+    for it in range(n_it):
+        iterate(S, finish and it == n_it - 1)
+    return end_substep(S, finish and n_it > 0)
 
 
 @_inline
@@ -554,8 +558,8 @@ def run_phase(S, phase, sub, n_sub):
         begin_substep(S, sub, n_sub)
         return 0
     if phase == PHASE_ITERATE:
-        iterate(S)
+        iterate(S, False)
         return 0
     if phase == PHASE_END:
-        return end_substep(S)
+        return end_substep(S, False)
     return 1 if _end_step(S) else 0
