@@ -54,6 +54,7 @@ from mjcable.solvers.contact_kernels import (
 )
 from mjcable.solvers.cosserat_kernels import frames_begin, frames_end, rod_iterate
 from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # noqa: F401
+from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
@@ -186,7 +187,7 @@ def _jacobi_counts(S):
 @_inline
 def iterate(S):
     """One constraint iteration in the configured order; contacts are projected sequentially last, so that they
-    hold exactly when the iteration ends."""
+    hold exactly when the iteration ends. Returns the most depth one contact projection removed (m)."""
     P = S.par[0]
     h2 = P.h * P.h
     at_s, at_b, at_c = P.alpha_s / h2, P.alpha_b / h2, P.alpha_c / h2
@@ -220,11 +221,13 @@ def iterate(S):
         if bend_or_clamp:  # a call passing S: skipped when there is nothing to do
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
     n_con, n_self = P.n_con, P.n_self
+    deepest = 0.0
     if n_con:
-        contact_sweep(S)
+        deepest = contact_sweep(S)
         friction_sweep(S)
     if n_self:
         self_contact_sweep(S)
+    return deepest
 
 
 @_inline
@@ -332,9 +335,25 @@ def substep(S, sub, n_sub):
     if is_plain(S):
         return plain_substep(S, sub, n_sub)
     begin_substep(S, sub, n_sub)
-    for _ in range(S.par[0].iterations):
-        iterate(S)
+    P = S.par[0]
+    deepest = 0.0
+    for _ in range(P.iterations):
+        deepest = iterate(S)
+    _impact(S, deepest)
     return end_substep(S)
+
+
+@_inline
+def _impact(S, deepest):
+    """After a substep's iterations: a substep in which a contact of a point chain was struck
+    (:func:`~mjcable.solvers.impact_kernels.struck`) is resolved as an impact
+    (:func:`~mjcable.solvers.impact_kernels.resolve_impact`). A struck contact's approach alone puts it at least
+    ``impact_speed`` · h deep, so a substep whose last contact sweep removed less (``deepest``, m: a cable at rest,
+    g h²) is not tested."""
+    P = S.par[0]
+    if (P.n_con and P.impact_iterations > 0 and deepest >= P.impact_speed * P.h and S.q.shape[0] == 0
+            and struck(S)):
+        resolve_impact(S)
 
 
 @_inline
@@ -557,5 +576,6 @@ def run_phase(S, phase, sub, n_sub):
         iterate(S)
         return 0
     if phase == PHASE_END:
+        _impact(S, math.inf)
         return end_substep(S)
     return 1 if _end_step(S) else 0
