@@ -42,11 +42,12 @@ def test_rope_over_a_peg_obeys_the_heavy_capstan_law(model, dt, settings):
 CUT = 3e-4  # m: the start arc's chords cut this deep into the peg
 DROP = 0.02  # m: the same start raised by this much, so that the rope falls onto the peg
 LANDINGS = {"cut": {"clearance": -CUT}, "dropped": {"clearance": -CUT, "lift": DROP}}
-DROPPED_LIMITATION = (
-    "known limitation (docs/measurements.md, 2026-11-28): one iteration per substep projects the chain before the "
-    "contacts, so an impact on the peg is absorbed by a stretch of the inextensible rope (0.47 mm at 16 substeps) "
-    "that springs back and throws the rope off the peg, and the friction that the impact's normal load should give "
-    "comes substeps later than the legs' pull; converged iterations (8-64) hold")
+DROPPED_MARGIN = (
+    "known limitation (docs/measurements.md, 2026-11-27): the impact's iterations (mjcable.solvers.impact_kernels) "
+    "hold the dropped rope at 14 of the 16 cases that hold from a start on the peg, but the rope slides about 2 cm "
+    "during the impact, so that it holds only up to 0.85-0.9 of the threshold at 16 substeps (an inelastic landing "
+    "holds up to 0.92: the legs' mass ratio reaches e^{μπ}); here it slides")
+DROPPED_MARGIN_CASES = {("jakobsen", 16, 0.002), ("pbd", 16, 0.002)}
 SOFT_LIMITATION = (
     "known limitation (docs/measurements.md, 2026-11-28): one Gauss-Seidel sweep per 2 ms stretches the rope by "
     "2-4 % and it swings; it slides from a start clear of the peg as well")
@@ -60,10 +61,10 @@ def _landing_cases():
             for dt in (0.002, 0.0005):
                 for landing in LANDINGS:
                     marks = []
-                    if landing == "dropped":
-                        marks.append(pytest.mark.xfail(strict=True, reason=DROPPED_LIMITATION))
-                    elif model != "xpbd" and substeps == 1 and dt == 0.002:
+                    if model != "xpbd" and substeps == 1 and dt == 0.002:
                         marks.append(pytest.mark.xfail(strict=True, reason=SOFT_LIMITATION))
+                    elif landing == "dropped" and (model, substeps, dt) in DROPPED_MARGIN_CASES:
+                        marks.append(pytest.mark.xfail(strict=True, reason=DROPPED_MARGIN))
                     yield pytest.param(model, substeps, dt, landing, marks=marks,
                                        id=f"{model}-{substeps}substeps-{dt * 1e3:g}ms-{landing}")
 
@@ -103,6 +104,24 @@ def test_rope_over_a_peg_holds_however_it_lands(model, substeps, dt, landing):
               for f in (0.85, 1.15)}
     assert speeds[0.85] < contact.HOLD_SPEED, speeds
     assert speeds[1.15] > contact.SLIDE_SPEED, speeds
+
+
+@pytest.mark.parametrize("model, substeps, dt", [("jakobsen", 4, 0.002), ("pbd", 16, 0.002),
+                                                 ("xpbd", 16, 0.0005), ("xpbd", 1, 0.002)])
+def test_a_rope_dropped_on_a_frictionless_peg_does_not_bounce(model, substeps, dt):
+    """An inextensible rope landing on a rigid, frictionless peg has nothing to store the impact in: its centre of
+    mass rises after the landing at less than a fifth of the landing speed (measured: at most 0.11 of it; with one
+    iteration per substep the stretch that the contacts left sprang back and threw it up at 0.43-0.62 of it)."""
+    scene = contact.capstan_scene(0.85, mu=0.0, clearance=-CUT, lift=DROP)
+    sim = mjcable.Simulator(scene, model, dt=dt, substeps=substeps)
+    m = np.asarray(scene.cable.particle_masses)
+    rise = []
+    while sim.time < 0.1:
+        sim.step()
+        rise.append(float(m @ sim.velocities[:, 2]) / m.sum())
+    landing = math.sqrt(2.0 * G * DROP)
+    assert min(rise) < -0.8 * landing  # it fell, and landed
+    assert max(rise) < 0.2 * landing, max(rise)
 
 
 def _state(**arrays):

@@ -1,6 +1,6 @@
 """Contacts of the particle solvers, ``@njit`` (cached, see :mod:`mjcable.solvers._kernel_cache`): the obstacles'
 shapes, the normal projections of obstacle and self contacts, and Coulomb friction with persistent anchors.
-Re-exported by :mod:`mjcable.solvers.kernels`.
+Re-exported by :mod:`mjcable.solvers.kernels`; impacts get more iterations in :mod:`~mjcable.solvers.impact_kernels`.
 
 **Geometry.** ``mj_collision`` finds the contacts once per step (with a margin that covers the step's travel): a
 segment (i, i+1), the fraction s of its axis point p = (1 − s) xᵢ + s xᵢ₊₁, and the obstacle. In every substep and
@@ -234,7 +234,7 @@ def contact_sweep(S):
     v_d h), C₀ from the substep's start ``x0``) against the obstacle's shape, and adds each particle's share of
     Δλₙ to its friction sums (``fric_n``, ``fric_mu``, ``fric_nsum``, ``fric_normal``, the obstacle ``fric_ob``);
     the static obstacles' contacts come last. A held particle (w = 0) collects its share of ∇C Δλ in ``react``; a
-    contact nearer a held particle than its segment's middle is left to the pin."""
+    contact nearer a held particle than its segment's middle is left to the pin. Returns the most depth removed (m)."""
     P = S.par[0]
     radius = P.radius
     recover = DEPENETRATION_SPEED * P.h
@@ -245,6 +245,7 @@ def contact_sweep(S):
         S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_mu, S.con_shape, S.con_face, S.con_lam)
     shapes = shapes_of(S)
     n_con = P.n_con
+    deepest = 0.0  # the most depth one projection removed
     mixed = False  # some obstacle moves: two passes, the static obstacles second (they hold when the sweep ends)
     for r in range(moves.shape[0]):
         mixed = mixed or moves[r]
@@ -289,6 +290,7 @@ def contact_sweep(S):
         excess = cval - min(start + recover, 0.0)  # C less its target: the depth this projection removes
         if excess >= 0.0:
             continue
+        deepest = max(deepest, -excess)
         dlam = -excess * inv_wsum
         lam[c] += dlam
         mu = con_mu[c]
@@ -320,6 +322,7 @@ def contact_sweep(S):
             fric_normal[p, 0] += turn * f * nx
             fric_normal[p, 1] += turn * f * ny
             fric_normal[p, 2] += turn * f * nz
+    return deepest
 
 
 @_inline
@@ -364,8 +367,8 @@ def friction_sweep(S, finish):
     (chords touching a curved surface push a particle a little sideways), counts with the friction impulse f:
     |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
     grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
-    outside it)."""
-    _particle_sweep(S, True, finish)
+    outside it). Returns the largest correction |Δx| (m)."""
+    return _particle_sweep(S, True, finish)
 
 
 @_inline
@@ -381,7 +384,8 @@ def update_anchors(S):
 def _particle_sweep(S, friction, finish):
     """One pass over the particles: with ``friction``, :func:`friction_sweep`'s (its cones first); with
     ``finish``, each particle's end of the substep (:func:`update_anchors`) right after its friction, in the same
-    pass (one pass less over the particles per substep: ``docs/measurements.md``)."""
+    pass (one pass less over the particles per substep: ``docs/measurements.md``). Returns the largest friction
+    correction |Δx| (m)."""
     if friction:
         _friction_cones(S)
     x, x0, w, anchor, anchor_ob, moves = S.x, S.x0, S.w, S.anchor, S.anchor_ob, S.shape_moves
@@ -390,6 +394,7 @@ def _particle_sweep(S, friction, finish):
     fric_ob = S.fric_ob
     unit, push, cones = S.fric_unit, S.fric_push, S.fric_cone
     shapes = shapes_of(S)
+    largest = 0.0  # the largest correction (m²: squared)
     for p in range(x.shape[0]):
         cone = cones[p] if friction else -1.0
         if cone >= 0.0:
@@ -436,6 +441,7 @@ def _particle_sweep(S, friction, finish):
             x[p, 0] += g * ex
             x[p, 1] += g * ey
             x[p, 2] += g * ez
+            largest = max(largest, g * g * qa)
         if finish:  # (written out here: an inline helper taking these arrays would cost reference counting)
             if fric_n[p] <= 0.0:
                 anchor_ob[p] = -1
@@ -453,6 +459,7 @@ def _particle_sweep(S, friction, finish):
                 fric_nsum[p, c] = 0.0
                 fric_impulse[p, c] = 0.0
                 fric_normal[p, c] = 0.0
+    return math.sqrt(largest)
 
 
 @_inline

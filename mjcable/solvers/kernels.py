@@ -54,6 +54,7 @@ from mjcable.solvers.contact_kernels import (
 )
 from mjcable.solvers.cosserat_kernels import frames_begin, frames_end, rod_iterate
 from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # noqa: F401
+from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
@@ -184,10 +185,12 @@ def _jacobi_counts(S):
 
 
 @_inline
-def iterate(S, finish):
+def iterate(S, last):
     """One constraint iteration in the configured order; contacts are projected sequentially last, so that they
-    hold exactly when the iteration ends. ``finish``: the substep's last iteration, whose friction sweep also ends
-    the particles' substep (:func:`~mjcable.solvers.contact_kernels.update_anchors`)."""
+    hold exactly when the iteration ends. ``last``: the substep's last iteration: a struck contact then gets the
+    impact's iterations (:func:`_struck`, after this iteration's friction), and otherwise the friction sweep also
+    ends the particles' substep (:func:`~mjcable.solvers.contact_kernels.update_anchors`) unless two-way contacts
+    read the sums after it. Returns whether it did."""
     P = S.par[0]
     h2 = P.h * P.h
     at_s, at_b, at_c = P.alpha_s / h2, P.alpha_b / h2, P.alpha_c / h2
@@ -221,11 +224,17 @@ def iterate(S, finish):
         if bend_or_clamp:  # a call passing S: skipped when there is nothing to do
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
     n_con, n_self = P.n_con, P.n_self
+    impact = finished = False
     if n_con:
-        contact_sweep(S)
-        friction_sweep(S, finish)
+        deepest = contact_sweep(S)
+        impact = last and _struck(S, deepest)
+        finished = last and not impact and S.impulse_force.shape[0] == 0
+        friction_sweep(S, finished)
     if n_self:
         self_contact_sweep(S)
+    if impact:
+        resolve_impact(S)
+    return finished
 
 
 @_inline
@@ -334,11 +343,21 @@ def substep(S, sub, n_sub):
         return plain_substep(S, sub, n_sub)
     begin_substep(S, sub, n_sub)
     n_it = S.par[0].iterations
-    # the last friction sweep ends the particles' substep in its pass, unless two-way contacts read the sums after
-    finish = S.impulse_force.shape[0] == 0 and S.par[0].n_con > 0
+    finished = False
     for it in range(n_it):
-        iterate(S, finish and it == n_it - 1)
-    return end_substep(S, finish and n_it > 0)
+        finished = iterate(S, it == n_it - 1)
+    return end_substep(S, finished)
+
+
+@_inline
+def _struck(S, deepest):
+    """Whether a substep's contacts of a point chain were struck (:func:`~mjcable.solvers.impact_kernels.struck`),
+    so that it is resolved as an impact (:func:`~mjcable.solvers.impact_kernels.resolve_impact`). A struck contact's
+    approach alone puts it at least ``impact_speed`` · h deep, so a substep whose last contact sweep removed less
+    (``deepest``, m: a cable at rest, g h²) is not tested."""
+    P = S.par[0]
+    return (P.n_con > 0 and P.impact_iterations > 0 and deepest >= P.impact_speed * P.h and S.q.shape[0] == 0
+            and struck(S))
 
 
 @_inline
@@ -561,5 +580,7 @@ def run_phase(S, phase, sub, n_sub):
         iterate(S, False)
         return 0
     if phase == PHASE_END:
+        if _struck(S, math.inf):
+            resolve_impact(S)
         return end_substep(S, False)
     return 1 if _end_step(S) else 0

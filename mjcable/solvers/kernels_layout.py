@@ -61,6 +61,13 @@ _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
 # start that cuts into it, or what a sweep after the contacts left): removed in one substep it would leave as a
 # velocity of depth / h, 2.4 m/s for 0.3 mm at h = 0.125 ms (contact_kernels.contact_sweep, docs/measurements.md)
 DEPENETRATION_SPEED = 0.02
+# Impacts (impact_kernels): a contact that presses in a substep and whose point approached its obstacle faster than
+# IMPACT_SPEED (m/s) makes the substep an impact, resolved by up to IMPACT_ITERATIONS more iterations of the chain held
+# at its lengths, the contacts and friction, until an iteration's contact and friction corrections are at most
+# IMPACT_TOLERANCE · h (m/s · s: the velocity they would still leave; docs/measurements.md, 2026-11-27)
+IMPACT_SPEED = 0.2
+IMPACT_ITERATIONS = 32
+IMPACT_TOLERANCE = 1e-4
 PAIRS_OFF = -1e10  # m: a pair margin no pair of geoms is closer than (switches the cable's pairs off)
 
 #: The solver's scalars, one record (``SolverState.par``, a length-1 array of this dtype).
@@ -121,6 +128,10 @@ PARAMS = np.dtype([
     # whether the rod is limp (E·I = G·J = 0): its direct solve is over the stretch–shear rows alone
     # (cosserat_direct_kernels)
     ("rod_limp", "?"),
+    # impacts (impact_kernels): the approach speed (m/s) from which a pressing contact counts as struck, the most
+    # iterations of a struck substep, the contact and friction correction (m) that ends them, and a read-out: the
+    # substeps resolved as impacts since the start
+    ("impact_speed", "f8"), ("impact_iterations", "i8"), ("impact_tol", "f8"), ("impacts", "i8"),
 ])
 
 

@@ -197,7 +197,9 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             check_where=-1, warn_where=-1, warn_step=-1, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
             query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1,
-            verlet_start=rules.verlet_start).items():
+            verlet_start=rules.verlet_start,
+            impact_speed=layout.IMPACT_SPEED, impact_iterations=layout.IMPACT_ITERATIONS,
+            impact_tol=layout.IMPACT_TOLERANCE * h).items():
         P[name] = value
     n_pins = len(pins)
     a = StateArrays(
