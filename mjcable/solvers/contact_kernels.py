@@ -385,7 +385,7 @@ def _particle_sweep(S, friction, finish):
     """One pass over the particles: with ``friction``, :func:`friction_sweep`'s (its cones first); with
     ``finish``, each particle's end of the substep (:func:`update_anchors`) right after its friction, in the same
     pass (one pass less over the particles per substep: ``docs/measurements.md``). Returns the largest friction
-    correction |Δx| (m)."""
+    correction |Δx| (m) of a pass that does not ``finish``."""
     if friction:
         _friction_cones(S)
     x, x0, w, anchor, anchor_ob, moves = S.x, S.x0, S.w, S.anchor, S.anchor_ob, S.shape_moves
@@ -441,7 +441,8 @@ def _particle_sweep(S, friction, finish):
             x[p, 0] += g * ex
             x[p, 1] += g * ey
             x[p, 2] += g * ez
-            largest = max(largest, g * g * qa)
+            if not finish:  # (read by the impact's iterations only)
+                largest = max(largest, g * g * qa)
         if finish:  # (written out here: an inline helper taking these arrays would cost reference counting)
             if fric_n[p] <= 0.0:
                 anchor_ob[p] = -1
