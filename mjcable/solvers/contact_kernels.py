@@ -226,7 +226,7 @@ def reset_friction(S):
     S.fric_normal[:, :] = 0.0
 
 
-@_inline
+@_jit
 def contact_sweep(S):
     """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
     normal ``con_normal`` and ``con_offset``, ``con_mu``, obstacle row ``con_shape`` or −1, a static box's face
@@ -380,7 +380,7 @@ def update_anchors(S):
     _particle_sweep(S, False, True)
 
 
-@_inline
+@_jit
 def _particle_sweep(S, friction, finish):
     """One pass over the particles: with ``friction``, :func:`friction_sweep`'s (its cones first); with
     ``finish``, each particle's end of the substep (:func:`update_anchors`) right after its friction, in the same
