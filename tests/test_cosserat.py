@@ -202,8 +202,8 @@ def test_the_energy_is_the_rods_torsion_and_bending():
 def test_every_model_with_frames_reports_them_along_its_segments(model):
     """``Simulator.frames`` of the ``hang`` cable, pinned at both ends, after it swung from its start curve towards
     its catenary (0.3 s): each frame's d₃ runs along its segment as the positions give it, and a cable that nothing
-    twisted has no twist between neighbouring frames (the d₃ part of their relative rotation, [KS16] Eq. 32, below 1e-6 rad per
-    segment); springs and flexrod say they have none."""
+    twisted has no twist between neighbouring frames (the d₃ part of their relative rotation, [KS16] Eq. 32, below 1e-6
+    rad per segment); springs and flexrod say they have none."""
     scene = mjcable.scenes.get("hang", n_segments=12)
     sim = mjcable.Simulator(scene, model)
     sim.step(0.3)
@@ -246,6 +246,7 @@ def test_step_along_turns_a_clamped_gripper_as_move_gripper_does():
     assert xpbd.steps == 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("axis, weak", [((0, 1, 0), True), ((0, 0, 1), False)], ids=["wide-face-down", "on-edge"])
 def test_a_flat_cable_bends_with_the_axis_it_is_turned_to(axis, weak):
     """A flat cantilever (elliptic section 4 × 2 mm semi-axes, ``section_axis`` the wide semi-axis' direction):
@@ -306,6 +307,7 @@ def test_the_native_capsule_chains_twist_when_a_clamped_gripper_turns(model, phi
     np.testing.assert_allclose(np.diff(angle), phi / (n - 1), rtol=0.02)  # a uniform twist: equal at every joint
 
 
+@pytest.mark.slow
 def test_greenhill_a_twisted_rod_buckles_at_2_86_pi_b_over_l():
     """Twist buckling (Greenhill; Timoshenko & Gere): a rod clamped at both ends, one end free to slide along the
     axis, twisted at that end, stays straight until the axial torque reaches M_c = 2.86 π B / L. The sliding end is

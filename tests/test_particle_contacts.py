@@ -23,7 +23,7 @@ CONFIGS = [  # (model, dt, settings): the particle solvers' defaults, xpbd at su
     ("xpbd", 0.002, {"substeps": 1}),
     ("xpbd", 0.002, {"substeps": 16}),
     ("xpbd", 0.0005, {}),
-    ("cosserat", 0.002, {}),
+    pytest.param("cosserat", 0.002, {}, marks=pytest.mark.slow),
 ]
 CREEP_SPEED = 1e-3  # m/s at 60 % of the threshold
 
@@ -267,7 +267,8 @@ def test_obstacle_shapes_measure_the_distance_mujoco_measures(typ, size):
         checked += 1
 
 
-@pytest.mark.parametrize("model", ["jakobsen", "pbd", "xpbd", "xpbd-gs", "cosserat"])
+@pytest.mark.parametrize("model", ["jakobsen", "pbd", "xpbd", "xpbd-gs",
+                                   pytest.param("cosserat", marks=pytest.mark.slow)])
 def test_particle_solvers_never_tunnel_through_a_thin_plate(model):
     """The stress family's 4 mm plate hit at 10 m/s, at dt 2 and 10 ms: the cable ends on the plate, every
     particle above it."""

@@ -36,7 +36,7 @@ substep:
 1. after every host step the moving obstacles' shapes are refreshed
    (:func:`~mjcable.solvers.query_kernels.refresh_moving`), so the solver's substep meets each body where it is;
 2. the solver's substep treats every obstacle as immovable and sums, per obstacle, the impulses its contacts gave
-   the cable (:func:`~mjcable.solvers.contact_kernels.collect_impulses`): j = Σ_c λₙ_c n_c (normal) + Σ_p f_p
+   the cable (:func:`~mjcable.solvers.impulse_kernels.collect_impulses`): j = Σ_c λₙ_c n_c (normal) + Σ_p f_p
    (each free particle's friction impulse), in kg·m, so that j / h = Σ m_p Δx_p / h is the momentum the contact
    projections gave the cable, with its moment about the origin from the contact points;
 3. the real ``mj_step`` applies −j / h² to the body (``xfrc_applied``: the force and its moment about the body's

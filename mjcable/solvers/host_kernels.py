@@ -14,7 +14,7 @@ its trial position):
 3. the solver's substep (one whole substep, the pins at this substep's targets);
 4. F = (x_p − b_free) / (w_b h h) + m_p g on each moving pin (−pin_force on a rigid one), added with its moment
    (p0 − xipos) × F to ``xfrc_applied``; the contacts' −Σ j / h² on the world's dynamic bodies
-   (:func:`mjcable.solvers.contact_kernels.body_wrenches`); ``mj_step``; both taken off ``xfrc_applied`` again;
+   (:func:`mjcable.solvers.impulse_kernels.body_wrenches`); ``mj_step``; both taken off ``xfrc_applied`` again;
    ``mj_kinematics``; the moving obstacles' shapes from ``geom_xpos``/``geom_xmat``; x_p = p1, v_p = (p1 − p0) / h;
 5. MuJoCo's divergence warnings (``BADQACC``, ``BADQPOS``, ``BADQVEL``: their counts in ``mjData.warning``, read
    through the bindings' numpy view) stop the step at that substep, their counts zeroed.
@@ -36,7 +36,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from mjcable.solvers import contact_kernels
+from mjcable.solvers import impulse_kernels
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.query_kernels import _call_model_data, refresh_moving
 
@@ -269,7 +269,7 @@ def host_after(S):
             for c in range(6):
                 xfrc_applied[b, c] += applied[j, c]
     if two_way:
-        contact_kernels.body_wrenches(S, -1.0 / (h * h))
+        impulse_kernels.body_wrenches(S, -1.0 / (h * h))
     _mj_step(P)
     if npin:
         for j in range(npin):

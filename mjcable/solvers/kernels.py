@@ -49,12 +49,13 @@ from mjcable.solvers.constraint_kernels import (
     stretch_step, stretch_step_rigid, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
 )
 from mjcable.solvers.contact_kernels import (
-    collect_impulses, contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
+    contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
     update_anchors,  # noqa: F401
 )
 from mjcable.solvers.cosserat_kernels import frames_begin, frames_end, rod_iterate
 from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # noqa: F401
 from mjcable.solvers.impact_kernels import resolve_impact, struck
+from mjcable.solvers.impulse_kernels import collect_impulses
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
     BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
@@ -239,9 +240,10 @@ def iterate(S, last):
 
 @_inline
 def end_substep(S, finished):
-    """Contact anchors (:func:`update_anchors`, unless the last iteration's friction sweep ``finished`` them;
-    before them, with two-way contacts, the contacts' impulses per obstacle: :func:`collect_impulses`);
-    v = (x − x₀)/h; the pins' forces and sockets that let go (:func:`_pin_forces`). Returns the number released."""
+    """Contact anchors (:func:`update_anchors`, unless the last iteration's friction sweep ``finished`` them; before
+    them, with two-way contacts, the contacts' impulses per obstacle:
+    :func:`~mjcable.solvers.impulse_kernels.collect_impulses`); v = (x − x₀)/h; the pins' forces and sockets that let go
+    (:func:`_pin_forces`). Returns the number released."""
     P = S.par[0]
     x = S.x
     if S.shape_type.shape[0] and not finished:
