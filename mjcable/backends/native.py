@@ -26,7 +26,7 @@ import numpy as np
 from mjcable import monitor
 from mjcable.backends.native_energy import CableEnergy
 from mjcable.backends.protocol import Energy, RunResult
-from mjcable.mjcf import data, world
+from mjcable.mjcf import data, joints, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
@@ -364,28 +364,16 @@ class NativeBackend:
         return quat_mul(self.mj_data.xquat[self._segment_body], self._frame_offset)
 
     def _segment_bodies(self) -> tuple:
-        """``(n,)`` the body of each segment (among the two holding its particles, the one whose origin is at one of
-        them and whose x axis reaches the other: a tree rooted at the cable's far end runs backwards) and ``(n, 4)``
-        the segment's start material frame in that body's frame, from the start pose: the frames are then the
-        twist-free start frames of every model (:func:`mjcable.solvers.state.start_frames`), turned with the
-        bodies."""
-        m, d = self.mj_model, self.mj_data
-        x, l0 = d.site_xpos[self._sites], self.scene.cable.segment_length
-        bodies = []
-        for i in range(self.scene.cable.n_segments):
-            for b in dict.fromkeys((int(self._site_body[i]), int(self._site_body[i + 1]))):
-                origin, axis = d.xpos[b], d.xmat[b].reshape(3, 3)[:, 0]
-                for start, end in ((x[i], x[i + 1]), (x[i + 1], x[i])):
-                    if max(np.abs(origin - start).max(), np.abs(origin + l0 * axis - end).max()) < 1e-6 * max(l0, 1):
-                        bodies.append(b)
-                        break
-                if len(bodies) > i:
-                    break
-            if len(bodies) <= i:  # pragma: no cover - a generator bug
-                raise RuntimeError(f"model {self.name!r}: no body spans segment {i}")
-        bodies = np.array(bodies, dtype=np.int64)
-        offset = quat_mul(d.xquat[bodies] * [1.0, -1.0, -1.0, -1.0], start_frames(self.scene.cable.particles))
-        return bodies, offset
+        """``(n,)`` the body of each segment and ``(n, 4)`` the segment's start material frame in that body's frame,
+        from the start pose: the frames are then the twist-free start frames of every model
+        (:func:`mjcable.solvers.state.start_frames`), turned with the bodies. Body j of the capsule chain spans
+        particles ``order[j]`` (its origin) to ``order[j + 1]`` (:func:`mjcable.mjcf.joints.tree_order`: backwards
+        for a tree rooted at the cable's far end)."""
+        order = joints.tree_order(self.scene)
+        bodies = np.empty(self.scene.cable.n_segments, dtype=np.int64)
+        bodies[np.minimum(order[:-1], order[1:])] = self._site_body[order[:-1]]
+        start = start_frames(self.scene.cable.particles)
+        return bodies, quat_mul(self.mj_data.xquat[bodies] * [1.0, -1.0, -1.0, -1.0], start)
 
     def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
         i = self._mocap_of_pin[k]

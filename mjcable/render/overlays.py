@@ -19,6 +19,7 @@ import functools
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from mjcable import _validate
 
@@ -64,16 +65,31 @@ def add_centreline(scn: mujoco.MjvScene, points, radius: float, rgba=CABLE_RGBA,
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 1 or not np.all(np.isfinite(points)):
         raise ValueError(f"points must be an (n, 3) array of finite positions in metres, got shape {points.shape}")
     radius = _validate.number("radius", radius, low=0.0, low_open=True, unit="m")
+    colour = _colour(rgba)
+    specular = _validate.number("specular", specular, low=0.0, high=1.0)
+    return _add_capsules(scn, points[:-1], points[1:], radius, colour, specular)
+
+
+def _colour(rgba) -> np.ndarray:
+    """``rgba`` as 4 float32 values in [0, 1].
+
+    Raises:
+      ValueError: not 4 numbers in [0, 1]."""
     colour = np.asarray(rgba, dtype=np.float32)
     if colour.shape != (4,) or not np.all((colour >= 0) & (colour <= 1)):
         raise ValueError(f"rgba must be 4 numbers in [0, 1], got {rgba!r}")
-    specular = _validate.number("specular", specular, low=0.0, high=1.0)
-    count = max(0, min(len(points) - 1, scn.maxgeom - scn.ngeom))
+    return colour
+
+
+def _add_capsules(scn: mujoco.MjvScene, starts: np.ndarray, ends: np.ndarray, radius: float, colour: np.ndarray,
+                  specular: float) -> int:
+    """Capsules from ``starts[i]`` to ``ends[i]`` (k, 3) into ``scn`` as far as it has free geoms; returns how many."""
+    count = max(0, min(len(starts), scn.maxgeom - scn.ngeom))
     geoms = mujoco.MjvScene.geoms.__get__(scn)  # all maxgeom slots (dm_control's subclass shows the first ngeom)
     for i in range(count):
         g = geoms[scn.ngeom]
         mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_CAPSULE, _ZERO3, _ZERO3, _EYE, colour)
-        mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_CAPSULE, radius, points[i], points[i + 1])
+        mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_CAPSULE, radius, starts[i], ends[i])
         g.specular = specular
         scn.ngeom += 1
     return count
@@ -99,13 +115,10 @@ def add_stripe(scn: mujoco.MjvScene, points, frames, radius: float, rgba=STRIPE_
     if points.ndim != 2 or points.shape[1] != 3 or q.shape != (len(points) - 1, 4):
         raise ValueError(f"frames must be (n, 4) quaternions for the n segments of points (n + 1, 3), got shapes "
                          f"{q.shape} and {points.shape}")
-    w, x, y, z = q.T
-    d1 = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
-    starts, ends = points[:-1] + radius * d1, points[1:] + radius * d1
-    count = 0
-    for i in range(len(q)):  # per frame, like add_centreline's segments
-        count += add_centreline(scn, np.stack([starts[i], ends[i]]), STRIPE_WIDTH * radius, rgba)
-    return count
+    radius = _validate.number("radius", radius, low=0.0, low_open=True, unit="m")
+    colour = _colour(rgba)
+    side = radius * Rotation.from_quat(q, scalar_first=True).apply([1.0, 0.0, 0.0])  # r d₁ of each segment
+    return _add_capsules(scn, points[:-1] + side, points[1:] + side, STRIPE_WIDTH * radius, colour, CABLE_SPECULAR)
 
 
 @functools.lru_cache(maxsize=None)

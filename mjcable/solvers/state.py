@@ -17,6 +17,7 @@ import math
 from typing import Optional
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from mjcable.scene import Scene
 from mjcable.solvers import kernels_layout as layout
@@ -269,9 +270,7 @@ def _about_d3(frame: np.ndarray, axis: np.ndarray, tangent: np.ndarray) -> np.nd
     if np.linalg.norm(across) < 1e-9 * np.linalg.norm(axis):
         raise ValueError(f"section_axis must point across the cable's first segment (direction {t.round(6).tolist()}),"
                          f" got {axis.tolist()}, which runs along it")
-    w, x, y, z = frame
-    d1 = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)])
-    d2 = np.array([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)])
+    d1, d2 = Rotation.from_quat(frame, scalar_first=True).apply(np.eye(3)[:2])
     angle = math.atan2(np.dot(across, d2), np.dot(across, d1))
     return np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
 
