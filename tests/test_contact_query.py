@@ -141,12 +141,24 @@ def _box_distance(p, centre, half):
 
 
 def _flat_contacts_are_their_face(backend, scene) -> int:
-    """Every contact measured as a flat face's plane (``BOX_FACE_FLAT``) measures, at the cable's positions now, the
-    exact distance of its point from the obstacle (the table's box, or the floor's plane) less the radius: the point
-    has not left the face. Returns how many it checked."""
+    """Every contact measured as a flat face's plane (``BOX_FACE_FLAT``, or ``BOX_FACE_SOLE``) measures, at the
+    cable's positions now, the exact distance of its point from the obstacle (the table's box, or the floor's plane)
+    less the radius: the point has not left the face. A ``BOX_FACE_SOLE`` contact acts at a particle that no other
+    contact touches, marked ``fric_sole`` with the contact's normal as its friction normal, and only those particles
+    are marked. Returns how many it checked."""
     n = int(backend.arrays.par[0]["n_con"])
     seg, frac, normal, offset, _, shape, face, _ = (a[:n] for a in kernels_layout.contact_buffers(backend.state))
-    flat = face == kernels_layout.BOX_FACE_FLAT
+    flat = np.isin(face, (kernels_layout.BOX_FACE_FLAT, kernels_layout.BOX_FACE_SOLE))
+    sole = face == kernels_layout.BOX_FACE_SOLE
+    at = np.where(frac == 1.0, seg + 1, seg)  # the particle a contact at a segment's end acts on
+    assert np.all((frac[sole] == 0.0) | (frac[sole] == 1.0))
+    touches = np.bincount(seg[frac < 1.0], minlength=len(backend.arrays.x)) + np.bincount(
+        seg[frac > 0.0] + 1, minlength=len(backend.arrays.x))
+    assert np.all(touches[at[sole]] == 1)
+    marked = np.zeros(len(backend.arrays.x), dtype=bool)
+    marked[at[sole]] = True
+    np.testing.assert_array_equal(backend.arrays.fric_sole, marked)
+    np.testing.assert_array_equal(backend.arrays.fric_unit[at[sole]], normal[sole])
     x = backend.positions()
     p = (1.0 - frac[flat, None]) * x[seg[flat]] + frac[flat, None] * x[seg[flat] + 1]
     planes = np.einsum("kc,kc->k", normal[flat], p) - offset[flat]

@@ -163,6 +163,7 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
         fric_n=np.zeros(4), fric_mu=np.zeros(4), fric_slid=np.zeros(4, dtype=np.bool_), fric_nsum=np.zeros((4, 3)),
         fric_impulse=np.zeros((4, 3)), fric_normal=np.zeros((4, 3)), fric_ob=np.zeros(4, dtype=np.int64),
         fric_unit=np.zeros((4, 3)), fric_push=np.zeros((4, 3)), fric_cone=np.zeros(4),
+        fric_sole=np.zeros(4, dtype=np.bool_),
         anchor=np.zeros((4, 3)), anchor_ob=np.full(4, -1, dtype=np.int64))
     par = a["par"][0]
     par["radius"], par["mu_self"], par["n_con"], par["n_self"], par["h"] = r, mu, 1, 1, h

@@ -190,7 +190,7 @@ class NativeBackend:
         sites, their velocities and the pins held by connect equalities; then the depth of the cable's contacts)."""
         d = self.mj_data
         lim = self._limits
-        check, value, where = step_check(x, v, previous, self._rest, self._check_particles,
+        check, value, where = step_check(x, np.ascontiguousarray(v), previous, self._rest, self._check_particles,
                                          d.site_xpos[self._check_anchors], d.eq_active[self._pin_eq[self._check_pins,
                                                                                                     0]].astype(bool),
                                          self._lim)

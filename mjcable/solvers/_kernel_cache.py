@@ -23,6 +23,7 @@ import types
 import warnings
 
 import numba
+from numba.extending import intrinsic
 
 KERNEL_PATTERN = "*kernels*.py"
 _HERE = os.path.dirname(os.path.realpath(__file__))
@@ -104,6 +105,19 @@ def _register() -> bool:
 
 
 CACHE = _register()
+
+
+@intrinsic
+def variable(typingctx, value):
+    """``value`` as a run-time variable of its type, not a compile-time constant. A compiled function called from
+    another with a constant argument (``f(S, True)``, ``f(S, 0, 1)``) is typed, and compiled, once per constant
+    (numba's ``Literal`` types): ``f(S, variable(True))`` compiles the one version every call site shares."""
+    out = numba.types.unliteral(value)
+
+    def codegen(context, builder, signature, args):
+        return context.cast(builder, args[0], signature.args[0], signature.return_type)
+
+    return out(value), codegen
 jit = numba.njit(cache=CACHE, error_model="numpy")
 inline = numba.njit(cache=CACHE, error_model="numpy", inline="always")
 #: for the drivers Python calls with real work (whole steps, substeps, the self-contact search): they release the GIL

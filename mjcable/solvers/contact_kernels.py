@@ -73,8 +73,8 @@ from __future__ import annotations
 
 import math
 
-from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_FLAT, BOX_FACE_NEGATIVE,
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, variable
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_SOLE,
                                             DEPENETRATION_SPEED, GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER,
                                             GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
 
@@ -270,13 +270,20 @@ def contact_sweep(S):
         inv_wsum = 1.0 / wsum
         if b == 0.0:  # at a particle (the query puts a contact this near a segment's end on the particle)
             px, py, pz = x[i, 0], x[i, 1], x[i, 2]
+            ox, oy, oz = x0[i, 0], x0[i, 1], x0[i, 2]
         elif a == 0.0:
             px, py, pz = x[j, 0], x[j, 1], x[j, 2]
+            ox, oy, oz = x0[j, 0], x0[j, 1], x0[j, 2]
         else:
             px = a * x[i, 0] + b * x[j, 0]
             py = a * x[i, 1] + b * x[j, 1]
             pz = a * x[i, 2] + b * x[j, 2]
-        if k >= 0 and con_face[c] != BOX_FACE_FLAT:  # (a flat face's plane is the half-space below)
+            ox = a * x0[i, 0] + b * x0[j, 0]
+            oy = a * x0[i, 1] + b * x0[j, 1]
+            oz = a * x0[i, 2] + b * x0[j, 2]
+        face = con_face[c]
+        flat = face == BOX_FACE_FLAT or face == BOX_FACE_SOLE  # (a static plane or face: the half-space below)
+        if k >= 0 and not flat:
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
                                               con_normal[c, 2], con_offset[c], radius, con_face[c])
         else:
@@ -285,9 +292,8 @@ def contact_sweep(S):
         if cval >= 0.0:
             continue
         start = 0.0  # C₀, the depth of the same point at the substep's start (a static obstacle's), C − n·(p − p₀)
-        if k >= 0 and not moves[k]:
-            start = min(cval - nx * (px - a * x0[i, 0] - b * x0[j, 0]) - ny * (py - a * x0[i, 1] - b * x0[j, 1])
-                        - nz * (pz - a * x0[i, 2] - b * x0[j, 2]), 0.0)
+        if flat or (k >= 0 and not moves[k]):
+            start = min(cval - nx * (px - ox) - ny * (py - oy) - nz * (pz - oz), 0.0)
         excess = cval - min(start + recover, 0.0)  # C less its target: the depth this projection removes
         if excess >= 0.0:
             continue
@@ -314,6 +320,8 @@ def contact_sweep(S):
                 fric_ob[p] = k
             fric_n[p] += g
             fric_mu[p] = max(fric_mu[p], mu)
+            if face == BOX_FACE_SOLE:  # the particle's one contact: its cone's normal is n (no sums to keep)
+                continue
             # a normal against the particle's summed one (a cable squeezed between two faces) counts turned round:
             # the particle's cone is then Σ of both sides' normal impulses, not their cancelling vector sum
             turn = -1.0 if fric_normal[p, 0] * nx + fric_normal[p, 1] * ny + fric_normal[p, 2] * nz < 0.0 else 1.0
@@ -331,13 +339,17 @@ def _friction_cones(S):
     """The first pass of :func:`friction_sweep`: each pressed free particle's cone from its sums, its unit normal
     n̂ (``fric_unit``), the sums' tangential part t_c (``fric_push``) and the cone's radius μ λₙ (``fric_cone``; −1
     for a particle without friction this substep). The particles' cones do not depend on one another, so this pass
-    runs without the second's chain through the positions."""
+    runs without the second's chain through the positions. A particle whose one contact is flat (``fric_sole``) has
+    its n̂ and t_c = 0 from the query (:func:`~mjcable.solvers.query_kernels.flatten_contacts`) and λₙ = Σ Δλₙ."""
     w, fric_n, fric_mu, fric_nsum, fric_normal, fric_ob = (S.w, S.fric_n, S.fric_mu, S.fric_nsum, S.fric_normal,
                                                            S.fric_ob)
-    unit, push, cone = S.fric_unit, S.fric_push, S.fric_cone
+    unit, push, cone, sole = S.fric_unit, S.fric_push, S.fric_cone, S.fric_sole
     for p in range(w.shape[0]):
         cone[p] = -1.0
         if fric_n[p] <= 0.0 or w[p] == 0.0 or fric_ob[p] < 0:
+            continue
+        if sole[p]:  # one flat contact: n̂ and t_c = 0 are the query's (flatten_contacts), λₙ = Σ Δλₙ
+            cone[p] = fric_mu[p] * fric_n[p]
             continue
         sx, sy, sz = fric_nsum[p, 0], fric_nsum[p, 1], fric_nsum[p, 2]  # Σ Δλ_c n_c
         nx, ny, nz = fric_normal[p, 0], fric_normal[p, 1], fric_normal[p, 2]
@@ -369,7 +381,7 @@ def friction_sweep(S, finish):
     |t_c + f| ≤ μ λₙ, with μ the largest of its contacts' coefficients. Friction only ever opposes the slip: f
     grows by the largest share α ≤ 1 of the impulse −Δx_t / w that stays in the cone (none if t_c alone is
     outside it). Returns the largest correction |Δx| (m)."""
-    return _particle_sweep(S, True, finish)
+    return _particle_sweep(S, variable(True), variable(finish))
 
 
 @_inline
@@ -378,7 +390,7 @@ def update_anchors(S):
     where they are now (in their obstacle's frame; the world's for a static one), and zero the substep's sums
     (:func:`reset_friction`) of the particles that had contacts. (The substep's last :func:`friction_sweep` does
     this in its own pass when nothing reads the sums after it.)"""
-    _particle_sweep(S, False, True)
+    _particle_sweep(S, variable(False), variable(True))
 
 
 @_jit

@@ -126,4 +126,5 @@ class ObstacleContacts:
         if not ncon:
             return 0
         con = d.contact
-        return query_kernels.contacts_from_mujoco(S, con.geom, con.dist, con.pos, con.frame)
+        c = np.ascontiguousarray  # (one compiled version for every contact count)
+        return query_kernels.contacts_from_mujoco(S, c(con.geom), c(con.dist), c(con.pos), c(con.frame))

@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, variable
 from mjcable.solvers.constraint_kernels import _bend_clamp_sweeps
 from mjcable.solvers.contact_kernels import contact_sweep, friction_sweep, self_contact_sweep
 from mjcable.solvers.kernels_layout import _TINY_LENGTH, BEND_NONE
@@ -127,7 +127,7 @@ def resolve_impact(S):
         held_chain_solve(S, scratch)
         if bend_or_clamp:
             _bend_clamp_sweeps(S, S.x, at_b, at_c, P.k_b, P.k_c)
-        moved = max(contact_sweep(S), friction_sweep(S, False))
+        moved = max(contact_sweep(S), friction_sweep(S, variable(False)))
         if P.n_self:
             self_contact_sweep(S)
         if moved <= P.impact_tol:

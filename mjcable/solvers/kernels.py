@@ -374,7 +374,8 @@ def _substeps(S):
         host_begin_step(S)
         for sub in range(n):
             host_before(S, sub, n)
-            released += substep(S, 0, 1)  # the host set the pins' targets for this substep
+            # the host set the pins' targets for this substep: its last of n reaches them, as the only one of 1
+            released += substep(S, n - 1, n)  # (variables: one compiled substep serves both paths)
             if host_after(S):
                 return released
         host_end_step(S)

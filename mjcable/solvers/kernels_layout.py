@@ -49,8 +49,9 @@ PHASE_BEGIN, PHASE_ITERATE, PHASE_END, PHASE_HOST_BEFORE, PHASE_HOST_AFTER = 0, 
 GEOM_PLANE, GEOM_SPHERE, GEOM_CAPSULE, GEOM_ELLIPSOID, GEOM_CYLINDER, GEOM_BOX = 0, 2, 3, 4, 5, 6
 # A box's faces (SolverState.con_face): +x, +y, +z, −x, −y, −z in the box's frame (axis = face % 3); FLAT: a contact
 # whose point stays over one face of a static box, or on a static plane, while its query is kept: its con_normal and
-# con_offset are that face's plane (query_kernels.flatten_contacts).
-BOX_FACE_NONE, BOX_FACE_NEGATIVE, BOX_FACE_FLAT = -1, 3, -2
+# con_offset are that face's plane (query_kernels.flatten_contacts); SOLE: a FLAT contact at a particle that has no
+# other contact (its friction cone's normal is the face's, SolverState.fric_sole).
+BOX_FACE_NONE, BOX_FACE_NEGATIVE, BOX_FACE_FLAT, BOX_FACE_SOLE = -1, 3, -2, -3
 #: The obstacle shapes as one argument of the shape kernels (:func:`mjcable.solvers.contact_kernels.shape_distance`):
 #: the state's ``shape_type`` (B,), ``shape_size`` (B, 3) m, ``shape_pos`` (B, 3) m, ``shape_rot`` (B, 3, 3).
 Shapes = namedtuple("Shapes", ("type", "size", "pos", "rot"))
@@ -175,6 +176,7 @@ FIELDS = (
     # the particle's friction cone, from the sums (contact_kernels.friction_sweep's first pass)
     ("fric_unit", _F2, "(N, 3) its unit normal n̂"), ("fric_push", _F2, "(N, 3) kg·m the sums' tangential part"),
     ("fric_cone", _F1, "(N,) kg·m the cone's radius μ λₙ (−1: no friction this substep)"),
+    ("fric_sole", _B1, "(N,) its one contact is a flat one at it, its normal in fric_unit (query_kernels)"),
     ("anchor", _F2, "(N, 3) m friction anchors in their obstacle's frame (the world's for a static one)"),
     ("anchor_ob", _I1, "(N,) the anchors' obstacle rows (−1: none)"),
     # obstacle contacts (C: the buffers' capacity, par.n_con in use; grown together by query_kernels.reserve_contacts)
@@ -299,8 +301,9 @@ def _friction(S, fric_n, fric_mu, fric_slid, fric_nsum, fric_impulse, fric_norma
 
 
 @_jit
-def _anchors(S, fric_unit, fric_push, fric_cone, anchor, anchor_ob):
-    S.fric_unit, S.fric_push, S.fric_cone, S.anchor, S.anchor_ob = fric_unit, fric_push, fric_cone, anchor, anchor_ob
+def _anchors(S, fric_unit, fric_push, fric_cone, fric_sole, anchor, anchor_ob):
+    S.fric_unit, S.fric_push, S.fric_cone, S.fric_sole = fric_unit, fric_push, fric_cone, fric_sole
+    S.anchor, S.anchor_ob = anchor, anchor_ob
 
 
 @_jit
@@ -394,7 +397,7 @@ _PARTS = (
     (_pins, ("pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force", "pin_sum", "pin_count")),
     (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs")),
     (_friction, ("fric_n", "fric_mu", "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob")),
-    (_anchors, ("fric_unit", "fric_push", "fric_cone", "anchor", "anchor_ob")),
+    (_anchors, ("fric_unit", "fric_push", "fric_cone", "fric_sole", "anchor", "anchor_ob")),
     (_obstacle_contacts, ("con_seg", "con_s", "con_normal", "con_offset", "con_mu", "con_shape", "con_face",
                           "con_lam")),
     (_self_contacts, ("self_pair", "self_st", "self_normal", "self_lam_n", "self_lam_t")),

@@ -66,6 +66,15 @@ def step_check(x, v, prev, rest, pin_p, pin_to, pin_active, lim):
                 torn, at = d, q
     if torn > L.tear:
         return CHECK_PIN, torn, at
+    # first whether any segment may be past the lower limit, |Δx|² > (1 + limit)² rest², without a root or a
+    # division per segment; only then each segment's strain
+    reach = (1.0 + min(L.strain_warn, L.strain_fail)) ** 2
+    over = 0.0
+    for i in range(rest.shape[0]):
+        d2 = (x[i + 1, 0] - x[i, 0]) ** 2 + (x[i + 1, 1] - x[i, 1]) ** 2 + (x[i + 1, 2] - x[i, 2]) ** 2
+        over = max(over, d2 - reach * rest[i] * rest[i])
+    if over <= 0.0:
+        return CHECK_OK, 0.0, -1
     strain, seg = -1.0, -1
     for i in range(rest.shape[0]):
         d = math.sqrt((x[i + 1, 0] - x[i, 0]) ** 2 + (x[i + 1, 1] - x[i, 1]) ** 2 + (x[i + 1, 2] - x[i, 2]) ** 2)

@@ -36,7 +36,8 @@ from numba.extending import intrinsic
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
 from mjcable.solvers.contact_kernels import box_face
-from mjcable.solvers.kernels_layout import BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_NONE, GEOM_BOX, GEOM_PLANE
+from mjcable.solvers.kernels_layout import (BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_NONE, BOX_FACE_SOLE, GEOM_BOX,
+                                            GEOM_PLANE)
 
 __all__ = ["find_self_contacts", "self_contacts", "query_holds", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
            "refresh_moving", "proxy_poses", "segment_closest"]
@@ -178,7 +179,13 @@ def flatten_contacts(S, n_con, inset):
     ``con_face`` names) at least ``inset`` m inside the face's edges. Over the face, the box's distance is the face
     plane's (:func:`~mjcable.solvers.contact_kernels.shape_distance`), and a kept query's point moves less than its
     margin m_q (module docstring): with ``inset`` ≥ m_q the point never leaves the face while the contact lives, and
-    each sweep measures it with one dot product instead of the box's frame."""
+    each sweep measures it with one dot product instead of the box's frame.
+
+    A flat contact at a particle (s = 0 or 1) that is the particle's only contact is marked ``BOX_FACE_SOLE``, and
+    the particle ``fric_sole`` with the face's normal in ``fric_unit`` and no sideways push in ``fric_push``: its
+    friction cone is the face's, μ Σ Δλₙ about that normal, with no sums of normals to keep
+    (:func:`~mjcable.solvers.contact_kernels.contact_sweep`, :func:`~mjcable.solvers.contact_kernels.friction_sweep`;
+    a cable lying on a floor or a table)."""
     x, radius = S.x, S.par[0].radius
     typ, size, pos, rot, moves = S.shape_type, S.shape_size, S.shape_pos, S.shape_rot, S.shape_moves
     seg, frac, normal, offset, shape, face = S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_shape, S.con_face
@@ -208,6 +215,20 @@ def flatten_contacts(S, n_con, inset):
         normal[c, 0], normal[c, 1], normal[c, 2] = nx, ny, nz
         offset[c] = nx * pos[k, 0] + ny * pos[k, 1] + nz * pos[k, 2] + half + radius
         face[c] = BOX_FACE_FLAT
+    sole, unit, push = S.fric_sole, S.fric_unit, S.fric_push
+    sole[:] = False
+    touches = np.zeros(x.shape[0], dtype=np.int64)  # the contacts acting on each particle
+    for c in range(n_con):
+        touches[seg[c]] += frac[c] < 1.0
+        touches[seg[c] + 1] += frac[c] > 0.0
+    for c in range(n_con):
+        s = frac[c]
+        p = seg[c] + 1 if s == 1.0 else seg[c]
+        if face[c] == BOX_FACE_FLAT and (s == 0.0 or s == 1.0) and touches[p] == 1:
+            face[c] = BOX_FACE_SOLE
+            sole[p] = True
+            unit[p, 0], unit[p, 1], unit[p, 2] = normal[c, 0], normal[c, 1], normal[c, 2]
+            push[p, 0] = push[p, 1] = push[p, 2] = 0.0
 
 
 @_jit
@@ -340,7 +361,7 @@ def query_obstacles(S, margin):
         S.pair_margin[p] = margin
     _call_model_data(P.fn_collision, P.model, P.data)
     ncon = S.struct_i32[P.ncon_word]
-    reserve_contacts(S, ncon)
+    reserve_contacts(S, np.int64(ncon))  # (one compiled version: Python's calls pass an int64)
     base = S.struct_i64[P.contact_word] - P.arena  # bytes from the arena's start to contact[0]
     stride = P.contact_size
     arena_f64, arena_i32 = S.arena_f64, S.arena_i32

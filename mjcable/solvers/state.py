@@ -217,6 +217,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         fric_nsum=np.zeros((n_particles, 3)), fric_impulse=np.zeros((n_particles, 3)),
         fric_normal=np.zeros((n_particles, 3)), fric_ob=np.zeros(n_particles, dtype=np.int64),
         fric_unit=np.zeros((n_particles, 3)), fric_push=np.zeros((n_particles, 3)), fric_cone=np.zeros(n_particles),
+        fric_sole=np.zeros(n_particles, dtype=bool),
         anchor=np.zeros((n_particles, 3)), anchor_ob=np.full(n_particles, -1, dtype=np.int64),
         par=par, **rows, **_contact_buffers(_CONTACT_CAPACITY * n, _SELF_CONTACT_CAPACITY * n))
     for name, typ, _ in layout.FIELDS:  # the query's and the host's fields: empty until the backend fills them
