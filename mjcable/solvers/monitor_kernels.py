@@ -36,17 +36,17 @@ def step_check(x, v, prev, rest, pin_p, pin_to, pin_active, lim):
     ``max_speed``, ``strain_fail``, ``strain_warn``, ``tear`` (the particle state's ``par``, or
     :data:`mjcable.monitor.LIMITS`)."""
     L = lim[0]
-    far, top, own, bad = 0.0, 0.0, 0.0, 0.0  # bad: NaN once any x or v is non-finite (z − z), without a branch
-    for p in range(x.shape[0]):
-        d2, v2 = 0.0, 0.0
-        for comp in range(3):
-            bad += (x[p, comp] - x[p, comp]) + (v[p, comp] - v[p, comp])
-            far = max(far, abs(x[p, comp]))
-            d = x[p, comp] - prev[p, comp]
-            d2 += d * d
-            v2 += v[p, comp] * v[p, comp]
-        top = max(top, d2)
-        own = max(own, v2)
+    far, top, own, bad = 0.0, 0.0, 0.0, 0.0  # bad: NaN once any x or v is non-finite (0 · z), without a branch
+    for p in range(x.shape[0]):  # (each particle's terms summed first: one add per particle on bad's chain)
+        x0, x1, x2, v0, v1, v2 = x[p, 0], x[p, 1], x[p, 2], v[p, 0], v[p, 1], v[p, 2]
+        bad += ((x0 + x1) + (x2 + v0) + (v1 + v2)) * 0.0
+        a = max(abs(x0), abs(x1), abs(x2))
+        far = a if a > far else far
+        d0, d1, d2 = x0 - prev[p, 0], x1 - prev[p, 1], x2 - prev[p, 2]
+        a = d0 * d0 + d1 * d1 + d2 * d2
+        top = a if a > top else top
+        a = v0 * v0 + v1 * v1 + v2 * v2
+        own = a if a > own else own
     if bad != 0.0:
         return CHECK_NON_FINITE, math.nan, -1
     if far > L.max_distance:
