@@ -106,7 +106,10 @@ class NativeBackend:
         self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c, roll=r))
                                   for c, r in ((False, False), (True, False), (False, True))]
                                  for k in range(len(scene.pins))], dtype=np.int64).reshape(-1, 3)
-        # pin k -> the roll site its third connect holds (-1: none)
+        # pin k -> the sites its second (a clamp body's, else the neighbour particle's) and third connects hold
+        # (-1: none)
+        self._clamp_site = np.array([self._clamp_site_of(k) if self._pin_eq[k, 1] >= 0 else -1
+                                     for k in range(len(scene.pins))], dtype=np.int64)
         self._roll_site = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.roll_site(scene.pin_particle(k)))
                                     if self._pin_eq[k, 2] >= 0 else -1 for k in range(len(scene.pins))],
                                    dtype=np.int64)
@@ -346,13 +349,19 @@ class NativeBackend:
             if eq_clamp >= 0:
                 f = self._equality_force(eq_clamp)
                 out[k, 3:] += f
-                i, j = scene.pin_particle(k), scene.clamp_neighbour(k)
-                out[k, :3] = np.cross(x[j] - x[i], f)
+                out[k, :3] = np.cross(self.mj_data.site_xpos[self._clamp_site[k]] - x[scene.pin_particle(k)], f)
             if eq_roll >= 0:
                 f = self._equality_force(eq_roll)
                 out[k, 3:] += f
                 out[k, :3] += np.cross(self.mj_data.site_xpos[self._roll_site[k]] - x[scene.pin_particle(k)], f)
         return out
+
+    def _clamp_site_of(self, k: int) -> int:
+        """The site that clamped pin ``k``'s second connect holds: its clamp body's (``joints``, ``composite``:
+        :func:`mjcable.mjcf.world.clamp_site`), else the neighbour particle's."""
+        i = self.scene.pin_particle(k)
+        site = _name2id(self.mj_model, mujoco.mjtObj.mjOBJ_SITE, world.clamp_site(i))
+        return site if site >= 0 else int(self._sites[self.scene.clamp_neighbour(k)])
 
     def gripper_positions(self) -> np.ndarray:
         return self.mj_data.mocap_pos[self._gripper_mocap].copy()
