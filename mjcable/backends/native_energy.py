@@ -63,7 +63,7 @@ class CableEnergy:
     def __init__(self, m: mujoco.MjModel, sites: np.ndarray, scene: Scene):
         clamps = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, joints.clamp_body_name(k))
                   for k in range(len(scene.pins))]
-        bodies = np.unique(np.concatenate([m.site_bodyid[sites], clamps]))  # the particles' and the clamp bodies
+        bodies = np.unique(np.concatenate([m.site_bodyid[sites], np.array(clamps, dtype=np.int64)]))  # and clamps
         self.bodies = bodies[bodies > 0]
         self.dofs = np.flatnonzero(np.isin(m.dof_bodyid, self.bodies))
         self._tendons(m, sites)
