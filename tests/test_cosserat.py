@@ -16,7 +16,6 @@ from mjcable.solvers.state import quat_mul, start_frames
 G = 9.81
 ZERO_G = '<mujoco><option gravity="0 0 0"/><worldbody/></mujoco>'
 L, RADIUS, YOUNG, N = 1.0, 0.005, 1e8, 50
-NATIVE_ARC_SUBSTEPS = 2  # the capsule chains' substeps for the arc's end force within 1 % of B / R² at N = 50
 START = np.array([0.0, 0.0, 0.5])
 
 
@@ -69,15 +68,12 @@ def test_torsion_gives_the_end_torque_c_phi_over_l_and_a_uniform_twist(phi):
 @pytest.mark.parametrize("model", ["cosserat", "joints", pytest.param("composite", marks=pytest.mark.composite)])
 def test_arc_bending_lies_on_the_arc_with_end_torque_b_over_r_and_no_twist(model):
     """Both ends clamped, the far one carried by its gripper along a quarter circle (R = 2L/π) with the arc's
-    tangent over 1 s (longer than the rod's lowest period, 0.28 s, so that it arrives at rest): the rod lies on the
-    arc, with end torques B / R, no end force and no twist. The native chains run at ``NATIVE_ARC_SUBSTEPS`` (their
-    clamps' soft connects sag under the end torque by (1 − d)·h² over the effective mass, see README "Twist"; at
-    their default substep the end force is 2 % of B / R²). Sweeping the arc in 0.2 s at their default substep tears
-    their far pin: a gripper rooting the kinematic tree carries the whole chain with it each MuJoCo step, and the
-    monitor says to take more substeps."""
+    tangent over 1 s (longer than the rod's lowest period, 0.28 s, so that it arrives at rest), every model at its
+    defaults: the rod lies on the arc, with end torques B / R, no end force and no twist. (Sweeping the arc in 0.2 s
+    tears the native chains' far pin at their default substep: a gripper rooting the kinematic tree carries the
+    whole chain with it each MuJoCo step, and the monitor says to take more substeps.)"""
     cable = _straight()
-    settings = {} if model == "cosserat" else {"substeps": NATIVE_ARC_SUBSTEPS}
-    sim = mjcable.Simulator(_both_clamped(cable), model, **settings)
+    sim = mjcable.Simulator(_both_clamped(cable), model)
     steps = round(1.0 / sim.dt)
     for j in range(1, steps + 1):  # bend through arcs of growing angle up to a quarter circle
         theta = 0.5 * math.pi * j / steps
