@@ -48,8 +48,13 @@ Pins as in ``joints``: the chain is generated from the pinned end the tree is ro
 (:func:`mjcable.mjcf.joints.tree_order`: particle 0, or particle n when only the far end has a world or gripper
 pin, so ``cableB_first`` then sits at particle n); the root pin through the root's joints (none: free; world pin:
 ball, clamped: none; gripper: ball or none, the chain a child of the mocap body ``gripper{k}``),
-every other pin (sockets always) with site-to-site connect equalities ``pin{k}`` / ``pin{k}_clamp``. A moving
-gripper held by an equality at the far leaf of the chain diverges (see ``joints``).
+every other pin (sockets always) with site-to-site connect equalities ``pin{k}`` / ``pin{k}_clamp`` /
+``pin{k}_roll``. A moving gripper held by an equality at the far leaf of the chain diverges (see ``joints``). A
+stiff cable's end clamp is a clamp body ``clamp{k}`` as in ``joints``
+(:func:`mjcable.mjcf.joints.frame_clamps`), on the plugin too: the plugin's first body (the root's clamp) or last
+(the far end's), its origin half a segment from the particle, so that the plugin bends and twists the end segment
+from the clamp's frame over half a segment (E·I / (l₀/2), G·J / (l₀/2)). MuJoCo's ``<composite>`` has no such
+body: a clamped stiff cable is ours alone.
 """
 
 from __future__ import annotations
