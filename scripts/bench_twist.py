@@ -9,7 +9,8 @@ ends clamped, the far end held by a gripper:
   the largest distance of the centreline from the arc (m), |end torque / (E·I / R) − 1| and the end force over
   E·I / R² (rod theory: none);
 
-(A curved rest shape only ``cosserat`` takes: ``tests/test_cosserat.py`` holds it to 0.1 mm.)
+The scene and paths are :mod:`mjcable.bench.twist`'s, whose ``torsion`` and ``arc`` scenarios run in ``mjcable bench``
+(one error each). (A curved rest shape only ``cosserat`` takes: ``tests/test_cosserat.py`` holds it to 0.1 mm.)
 
 Cost: wall seconds per simulated second of the torsion run (after a first step that compiles). Models without frames
 (``springs``, ``flexrod``, ``jakobsen``, ``pbd``, ``xpbd``) have no twist; they are listed as such. Every model runs
@@ -27,35 +28,17 @@ import os
 import time
 import warnings
 
-import mujoco
 import numpy as np
 
 import mjcable
-from mjcable import CableSpec, Pin, Scene, catalog
+from mjcable import catalog
+from mjcable.bench.twist import ARC_ANGLE, LENGTH as L, RADIUS, YOUNG, arc_point, turn, twist_scene
 
-ZERO_G = '<mujoco><option gravity="0 0 0"/><worldbody/></mujoco>'
-START = np.array([0.0, 0.0, 0.5])
-L, RADIUS, YOUNG, MASS, DAMPING = 1.0, 0.005, 1e8, 0.05, 30.0
 PHI = math.pi
 
 
-def _turn(axis, angle) -> np.ndarray:
-    axis = np.asarray(axis, dtype=float)
-    return np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * axis / np.linalg.norm(axis)])
-
-
-def _arc_point(theta: float, s: float) -> np.ndarray:
-    if theta == 0.0:
-        return START + [s, 0.0, 0.0]
-    radius = L / theta
-    return START + radius * np.array([math.sin(s / radius), 0.0, 1.0 - math.cos(s / radius)])
-
-
-def _simulator(model: str, n: int, settings: dict, **fields) -> mjcable.Simulator:
-    cable = CableSpec([START, START + [L, 0, 0]], n, RADIUS, MASS, young=YOUNG, damping=DAMPING, **fields)
-    scene = Scene(cable, pins=(Pin(0, clamp=True), Pin(-1, "gripper", clamp=True)),
-                  world=mujoco.MjSpec.from_string(ZERO_G))
-    return mjcable.Simulator(scene, model, **settings)
+def _simulator(model: str, n: int, settings: dict) -> mjcable.Simulator:
+    return mjcable.Simulator(twist_scene(n), model, **settings)
 
 
 def torsion(model: str, n: int, settings: dict) -> dict:
@@ -63,7 +46,7 @@ def torsion(model: str, n: int, settings: dict) -> dict:
     end = sim.gripper_positions[0]
     t0 = time.perf_counter()
     for j in range(1, 41):
-        sim.move_gripper(1, end, _turn([1, 0, 0], PHI * j / 40))
+        sim.move_gripper(1, end, turn([1, 0, 0], PHI * j / 40))
         sim.step()
     sim.step(1.5)
     wall = (time.perf_counter() - t0) / sim.time
@@ -75,14 +58,13 @@ def arc(model: str, n: int, settings: dict) -> dict:
     sim = _simulator(model, n, settings)
     steps = round(1.0 / sim.dt)
     for j in range(1, steps + 1):
-        theta = 0.5 * math.pi * j / steps
-        sim.move_gripper(1, _arc_point(theta, L), _turn([0, -1, 0], theta))
+        theta = ARC_ANGLE * j / steps
+        sim.move_gripper(1, arc_point(theta, L), turn([0, -1, 0], theta))
         sim.step()
     sim.step(1.0)
     cable = sim.scene.cable
-    radius = 2 * L / math.pi
-    s = np.arange(n + 1) * cable.segment_length
-    shape = np.array([_arc_point(0.5 * math.pi, si) for si in s])
+    radius = L / ARC_ANGLE
+    shape = arc_point(ARC_ANGLE, np.arange(n + 1) * cable.segment_length)
     b = cable.bending_stiffness
     return {"distance": float(np.linalg.norm(sim.positions - shape, axis=1).max()),
             "torque": float(np.abs(np.linalg.norm(sim.pin_torques, axis=1) / (b / radius) - 1.0).max()),

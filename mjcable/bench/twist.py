@@ -24,7 +24,8 @@ import numpy as np
 from mjcable.scene import CableSpec, Pin, Scene
 
 __all__ = ["twist_scene", "torsion_path", "torsion_turns", "arc_path", "arc_turns", "torsion_error", "arc_error",
-           "arc_point", "turn", "require_frames", "LENGTH", "START", "TORSION_ANGLE", "TORSION_RAMP", "ARC_SWEEP"]
+           "arc_point", "turn", "require_frames", "LENGTH", "RADIUS", "YOUNG", "START", "TORSION_ANGLE", "TORSION_RAMP",
+           "ARC_SWEEP", "ARC_ANGLE"]
 
 LENGTH, RADIUS, YOUNG, MASS, DAMPING = 1.0, 0.005, 1e8, 0.05, 30.0
 START = np.array([0.0, 0.0, 0.5])
