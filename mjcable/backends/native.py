@@ -10,8 +10,10 @@ Read-outs, all from MuJoCo's own state:
   forces on the particle sites (``efc_force`` rows, world frame, from the last step's constraint solve); a pin the
   kinematic tree realises (the root of a capsule chain) exerts the force its parent transmits to the root body
   (``cfrc_int`` after ``mj_rnePostConstraint``). Either way the pinned particle's own weight is included;
-* pin torques: a clamp held by two connects exerts (x_j − x_i) × f_clamp about its particle; a welded root the
-  transmitted torque moved to the particle;
+* pin torques: a clamp held by connects exerts Σ (s − x_i) × f about its particle, over its second and third
+  connects' sites s (the neighbour particle or the clamp body's site on the axis, and the roll site) and forces f; a
+  clamp the tree's root realises the torque its holder transmits, moved to the particle (through the clamp body and
+  its half-segment joint, for a stiff cable's);
 * energy: the cable's own kinetic, gravitational and elastic energy (:mod:`mjcable.backends.native_energy`).
 """
 
