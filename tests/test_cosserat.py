@@ -291,8 +291,9 @@ def test_a_bad_section_is_named():
 @pytest.mark.parametrize("phi", [0.5, 2 * math.pi])
 @pytest.mark.parametrize("model", ["joints", pytest.param("composite", marks=pytest.mark.composite)])
 def test_the_native_capsule_chains_twist_when_a_clamped_gripper_turns(model, phi):
-    """``joints`` and ``composite`` clamps hold the whole frame at their particle (a clamp body held by three
-    connects, the end segment turning from it over half a segment), so a gripper that turns by φ twists them: end
+    """``joints`` and ``composite`` clamps hold the whole frame at their particle (a clamp body, welded to the
+    gripper that roots the tree or held by three connects, the end segment turning from it over half a segment), so
+    a gripper that turns by φ twists them: end
     torques C φ / L within 1 % (``composite``: C = G·J; ``joints``: its stated C = E·I, the ball joints' isotropic
     stiffness) and a uniform twist, each segment turned by φ s / L at its centre s within 2 %."""
     cable = _straight()

@@ -61,18 +61,16 @@ clamp at an end (:func:`frame_clamps`) holds the frame *at its particle*, as the
 clamp body ``clamp{k}`` (the clamp's frame: welded to the world or gripper at the tree's root, else held by the
 three connects) from which the end segment turns by a ball joint at the particle with the stiffness of half a
 segment, E·I / (l₀/2) (:func:`add_first_body`, :func:`add_last_clamp`; the cable plugin measures ``composite``'s
-over the half segment between the bodies' origins). The chain then bends and twists over its whole length: the
-clamped arc's end torque, the cantilever's deflection and the twisted rod's torque C φ / L come out exact to
-O(1/N²) (the discrete chain's: a quarter-circle arc's end force is 0.5 % of B / R² at 50 segments, as
-``cosserat``'s), where a rigidly held end segment (a limp cable's clamp, and an interior clamp) bends and twists
-over N − 1 joints only (13 % of the arc's end torque and 1/(N − 1) of the torsion torque too high at 50 segments).
-The three connects of a clamp body have MuJoCo's stiffest impedance at rest (``CLAMP_SOLIMP``: 0.9999, falling to
-0.99 beyond 1 mm): a soft equality sags under a steady load by (1 − d) times the load over the constraint's
-effective mass and its stiffness 1/(2h)², which at the pins' d = 0.99 (0.999) put the arc's ends 1 mm (0.13 mm)
-off and its end torque 9 % (1 %) low at 50 segments; the fall keeps it soft where a moving gripper's carry
-violates it by millimetres each step (held at 0.9999 throughout, a 0.2 s arc sweep at 100 segments diverged). The sag still grows with
-the segments (their mass and armature shrink) and with h²: the arc holds its end force within 1 % of B / R² at
-the default 2 ms up to 50 segments, at 1 ms (2 substeps) up to 100.
+over the half segment between the bodies' origins). The chain then bends and twists over its whole length, as the
+rod does: the clamped arc's end torque, the cantilever's deflection and the twisted rod's torque C φ / L converge as
+O(1/N²), like ``cosserat``'s, where a rigidly held end segment (a limp cable's clamp, and an interior clamp) bends
+and twists over N − 1 joints only (the arc's end torque 1/(N − 1) high and more). The three connects of a clamp
+body have MuJoCo's stiffest impedance at rest (``CLAMP_SOLIMP``: 0.9999, falling to 0.99 beyond 1 mm): a soft
+equality sags under a steady load by (1 − d) times the load over the constraint's effective mass and its stiffness
+1/(2h)², and the fall keeps it soft where a moving gripper's carry violates it by millimetres each step. The sag
+grows with the segments (their mass and armature shrink) and with h²: the quarter-circle arc keeps its end force
+within 1 % of B / R² at the default 2 ms up to 50 segments, at 1 ms (2 substeps) up to 100 (measurements:
+``docs/measurements.md``).
 
 Why the far-end gripper roots the tree: a connect equality at the deepest leaf of a free-rooted 50-segment chain
 is what a moving gripper makes diverge (``unplug``: socket at particle 0, gripper at particle n, mjWARN_BADQACC
