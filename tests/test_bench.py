@@ -17,7 +17,7 @@ import pytest
 
 import mjcable
 from mjcable import catalog, cli, metrics
-from mjcable.bench import accuracy, case, plots, results, scenarios, stress, sweep
+from mjcable.bench import accuracy, case, plots, results, scenarios, stress, sweep, twist
 from mjcable.bench.case import Case
 from mjcable.bench.outcome import OUTCOMES
 from mjcable.bench.runner import run_case
@@ -149,6 +149,31 @@ def test_the_yank_follows_its_gripper_path_as_step_by_step_moves(model):
         sim.move_gripper(0, start + travelled * scenarios.YANK_DIRECTION)
         sim.step()
     assert np.array_equal(np.array(row["positions"]), sim.positions)
+
+
+@pytest.mark.parametrize("model", ["cosserat", "joints"])
+def test_the_twist_family_turns_its_gripper_as_step_by_step_moves(model):
+    # the torsion scenario hands its gripper's turn to step_along with the path: the state of one move_gripper with
+    # its orientation and step() per step; its error is the end torque's against G·J φ / L (joints: C = E·I, +50 %)
+    params = (("duration", 0.3), ("save_positions", 1))
+    row = run_case(Case("torsion", model, 0.002, n_segments=8, params=params))
+    assert row["outcome"] == "stable"
+    scene = twist.twist_scene(8)
+    sim = mjcable.Simulator(scene, model, dt=0.002)
+    end = np.asarray(scene.cable.particles[-1])
+    for k in range(row["steps"]):
+        sim.move_gripper(1, end, twist.turn([1, 0, 0], twist.TORSION_ANGLE * min(k * 0.002 / twist.TORSION_RAMP, 1)))
+        sim.step()
+    assert np.array_equal(np.array(row["positions"]), sim.positions)
+    c = scene.cable
+    expected = abs(sim.pin_torques[1, 0] / (c.torsion_stiffness * twist.TORSION_ANGLE / twist.LENGTH) - 1.0)
+    assert row["error"] == pytest.approx(expected, rel=1e-9)
+
+
+@pytest.mark.parametrize("name", ["torsion", "arc"])
+def test_the_twist_family_rejects_models_without_frames(name):
+    row = run_case(Case(name, "xpbd", 0.002, n_segments=8, params=(("duration", 0.1),)))
+    assert row["outcome"] == "rejected" and "no material frames" in row["reason"]
 
 
 # ------------------------------------------------------------------------------------------------ classifier

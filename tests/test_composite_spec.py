@@ -112,7 +112,9 @@ def _old_reparent(spec, root, parent, origin):
 
 def _scenes():
     cases = [(name, mjcable.scenes.get(name)) for name in SCENES]
-    cases.append(("cantilever", scenarios.cantilever_scene(20)))  # young > 0: the plugin, a clamped root
+    # (a stiff cable's clamp is a clamp body turning over half a segment, which MuJoCo's composite has no counterpart
+    # of: test_capsule_chains holds the clamped cantilever against beam theory instead)
+    cases.append(("cantilever_limp", scenarios.cantilever_scene(20, young=0.0)))  # a clamped root
     cases.append(("hang_stiff", mjcable.scenes.get("hang", young=3e6, n_segments=20)))
     cases.append(("yank_stiff", scenarios.yank_scene(12, young=1e6)))  # a gripper at particle 0 roots the tree
     cases.append(("free_2", Scene(CableSpec([[0.0, 0.0, 1.0], [0.2, 0.05, 1.1]], 2, 0.004, 0.01, young=2e5))))
@@ -184,7 +186,7 @@ def test_composite_spec_moves_like_the_xml_builder(name, scene, old_model_name):
             sim.step(sim.dt)
     moved = np.linalg.norm(new.positions - scene.cable.particles, axis=1).max()
     assert np.all(np.isfinite(new.positions))
-    assert moved > 1e-4 or name in ("cantilever",), f"{name}: nothing moved ({moved:.2e} m)"
+    assert moved > 1e-4, f"{name}: nothing moved ({moved:.2e} m)"
     error = np.linalg.norm(new.positions - old.positions, axis=1).max()
     assert error < POSITION_TOL, f"{name}: {error:.3e} m"
 

@@ -10,8 +10,10 @@ Read-outs, all from MuJoCo's own state:
   forces on the particle sites (``efc_force`` rows, world frame, from the last step's constraint solve); a pin the
   kinematic tree realises (the root of a capsule chain) exerts the force its parent transmits to the root body
   (``cfrc_int`` after ``mj_rnePostConstraint``). Either way the pinned particle's own weight is included;
-* pin torques: a clamp held by two connects exerts (x_j − x_i) × f_clamp about its particle; a welded root the
-  transmitted torque moved to the particle;
+* pin torques: a clamp held by connects exerts Σ (s − x_i) × f about its particle, over its second and third
+  connects' sites s (the neighbour particle or the clamp body's site on the axis, and the roll site) and forces f; a
+  clamp the tree's root realises the torque its holder transmits, moved to the particle (through the clamp body and
+  its half-segment joint, for a stiff cable's);
 * energy: the cable's own kinetic, gravitational and elastic energy (:mod:`mjcable.backends.native_energy`).
 """
 
@@ -106,7 +108,10 @@ class NativeBackend:
         self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c, roll=r))
                                   for c, r in ((False, False), (True, False), (False, True))]
                                  for k in range(len(scene.pins))], dtype=np.int64).reshape(-1, 3)
-        # pin k -> the roll site its third connect holds (-1: none)
+        # pin k -> the sites its second (a clamp body's, else the neighbour particle's) and third connects hold
+        # (-1: none)
+        self._clamp_site = np.array([self._clamp_site_of(k) if self._pin_eq[k, 1] >= 0 else -1
+                                     for k in range(len(scene.pins))], dtype=np.int64)
         self._roll_site = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.roll_site(scene.pin_particle(k)))
                                     if self._pin_eq[k, 2] >= 0 else -1 for k in range(len(scene.pins))],
                                    dtype=np.int64)
@@ -346,13 +351,19 @@ class NativeBackend:
             if eq_clamp >= 0:
                 f = self._equality_force(eq_clamp)
                 out[k, 3:] += f
-                i, j = scene.pin_particle(k), scene.clamp_neighbour(k)
-                out[k, :3] = np.cross(x[j] - x[i], f)
+                out[k, :3] = np.cross(self.mj_data.site_xpos[self._clamp_site[k]] - x[scene.pin_particle(k)], f)
             if eq_roll >= 0:
                 f = self._equality_force(eq_roll)
                 out[k, 3:] += f
                 out[k, :3] += np.cross(self.mj_data.site_xpos[self._roll_site[k]] - x[scene.pin_particle(k)], f)
         return out
+
+    def _clamp_site_of(self, k: int) -> int:
+        """The site that clamped pin ``k``'s second connect holds: its clamp body's (``joints``, ``composite``:
+        :func:`mjcable.mjcf.world.clamp_site`), else the neighbour particle's."""
+        i = self.scene.pin_particle(k)
+        site = _name2id(self.mj_model, mujoco.mjtObj.mjOBJ_SITE, world.clamp_site(i))
+        return site if site >= 0 else int(self._sites[self.scene.clamp_neighbour(k)])
 
     def gripper_positions(self) -> np.ndarray:
         return self.mj_data.mocap_pos[self._gripper_mocap].copy()

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mjcable.backends.protocol import Energy
-from mjcable.mjcf import composite
+from mjcable.mjcf import composite, joints
 from mjcable.scene import Scene
 
 __all__ = ["CableEnergy"]
@@ -61,7 +61,9 @@ class CableEnergy:
     """
 
     def __init__(self, m: mujoco.MjModel, sites: np.ndarray, scene: Scene):
-        bodies = np.unique(m.site_bodyid[sites])
+        clamps = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, joints.clamp_body_name(k))
+                  for k in range(len(scene.pins))]
+        bodies = np.unique(np.concatenate([m.site_bodyid[sites], np.array(clamps, dtype=np.int64)]))  # and clamps
         self.bodies = bodies[bodies > 0]
         self.dofs = np.flatnonzero(np.isin(m.dof_bodyid, self.bodies))
         self._tendons(m, sites)

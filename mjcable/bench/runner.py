@@ -167,18 +167,21 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
             while steps < total_steps and outcome == "stable":
                 driving = steps * dt < drive_end + dt
                 count = min(per_sample, total_steps - steps)
-                path = None
+                path = turns = None
                 if scenario.drive is not None:
                     scenario.drive(sim, steps * dt, params)
                     if driving:
                         count = 1  # the drive acts between steps while it is active
                 elif scenario.gripper_path is not None and driving:
-                    path = scenario.gripper_path(scene, (steps + np.arange(count)) * dt, params)
+                    at = (steps + np.arange(count)) * dt
+                    path = scenario.gripper_path(scene, at, params)
+                    if scenario.gripper_turns is not None:
+                        turns = scenario.gripper_turns(scene, at, params)
                 t0 = time.perf_counter()
                 if scenario.drive is None and path is None and sim.family == "particle":
                     samples = _sample_chunk(sim, min(per_call, total_steps - steps), per_sample)
                 else:
-                    samples = _sample_pair(sim, count, path)
+                    samples = _sample_pair(sim, count, path, turns)
                 step_wall += time.perf_counter() - t0
                 if scenario.needs_energy:
                     energies.append(sim.energy())
@@ -224,26 +227,29 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
     row["residual_speed"] = float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt
     if scenario.evaluate is not None:
         history = {"times": np.array(times), "com_x": np.array(com_x), "energy": np.array(energies)}
+        if scenario.needs_wrench:
+            history.update(pin_torques=sim.pin_torques, pin_forces=sim.pin_forces)
         try:
             row["error"] = float(scenario.evaluate(scene, x, history))
         except Exception as exc:  # noqa: BLE001 - a failed measurement is recorded, not raised
             row["reason"] = f"error measurement failed: {type(exc).__name__}: {exc}"
 
 
-def _sample_pair(sim, count: int, path: Optional[np.ndarray] = None) -> list:
+def _sample_pair(sim, count: int, path: Optional[np.ndarray] = None, turns: Optional[np.ndarray] = None) -> list:
     """Advance ``count`` steps in two calls, ``count - 1`` steps and then one (:meth:`Simulator.step`, or
-    :meth:`Simulator.step_along` the ``(count, G, 3)`` gripper ``path``), and return the one sample at the end:
-    ``[(steps taken, positions one step before, positions)]``, positions (n, 3) in metres."""
+    :meth:`Simulator.step_along` the ``(count, G, 3)`` gripper ``path``, with ``(count, G, 4)`` orientations
+    ``turns`` if given), and return the one sample at the end: ``[(steps taken, positions one step before,
+    positions)]``, positions (n, 3) in metres."""
     if count > 1:
         if path is None:
             sim.step((count - 1) * sim.dt)
         else:
-            sim.step_along(path[:-1])
+            sim.step_along(path[:-1], orientations=None if turns is None else turns[:-1])
     previous = sim.positions
     if path is None:
         sim.step()
     else:
-        sim.step_along(path[-1:])
+        sim.step_along(path[-1:], orientations=None if turns is None else turns[-1:])
     return [(count, previous, sim.positions)]
 
 

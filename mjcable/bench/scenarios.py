@@ -39,6 +39,11 @@ And the contact families (scenes and measurements in :mod:`mjcable.bench.contact
   (:func:`mjcable.bench.contact.fit_acceleration`); error = |a − a_ref| / a_ref when it should slide, |a| / (g sin θ)
   when it should stick (:func:`mjcable.reference.incline_acceleration`).
 
+And the twist family (scenes, paths and errors in :mod:`mjcable.bench.twist`), for the models with material frames
+(the others are ``rejected``): ``torsion`` (a clamped rod's end turned by π: relative error of the end torque
+against G·J φ / L) and ``arc`` (its end carried onto a quarter circle with the arc's tangent: largest distance in
+metres from the arc).
+
 Stress scenarios (:data:`STRESS_SCENARIOS`) vary one parameter each: ``stiffness`` (E·A on the drape), ``bending`` (E of a cantilever), ``segments``
 (n_segments on the table drop), ``speed`` (a gripper yanks the cable's end), ``load`` (a heavy mass at the end of
 a light cable hanging from one pin) and ``plate`` (a cable dropped from the height at which it hits a 4 mm plate at
@@ -59,7 +64,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
-from mjcable.bench import contact
+from mjcable.bench import contact, twist
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -138,6 +143,8 @@ class Scenario:
       gripper_path: optional ``(scene, times, params) → path``: the grippers' positions (``(steps, G, 3)``, metres,
         ``scene.grippers`` order) commanded before the steps that start at ``times`` (``(steps,)``, s); the runner
         hands it to :meth:`mjcable.Simulator.step_along` until ``drive_end``, after which the grippers stay.
+      gripper_turns: optional ``(scene, times, params) → orientations`` (``(steps, G, 4)`` unit quaternions) that go
+        with ``gripper_path`` (``step_along``'s ``orientations``).
       drive_end: simulated time after which ``drive`` and ``gripper_path`` no longer move anything; the run lasts
         ``duration + drive_end(params)``.
       passive: no energy is injected (energy growth means divergence).
@@ -145,6 +152,8 @@ class Scenario:
       needs_com_x: sample the centre of mass's x for ``evaluate`` (the chain's frequency).
       needs_energy: sample :meth:`mjcable.Simulator.energy` for ``evaluate`` (``history["energy"]``, J, at the start
         and after every call of the simulator).
+      needs_wrench: hand the final :attr:`~mjcable.Simulator.pin_torques` and ``pin_forces`` to ``evaluate``
+        (``history["pin_torques"]``, N·m, and ``history["pin_forces"]``, N, each ``(pins, 3)``).
       strain_limit: segment strain beyond which the run counts as diverged (``None``: the sweep's
         ``STRAIN_LIMIT``; ``math.inf`` for the stiffness-effect grid, whose point is to show the stretch).
       in_quick: run in ``--quick`` sweeps (accuracy scenarios).
@@ -162,11 +171,13 @@ class Scenario:
     evaluate: Optional[Callable[[Scene, np.ndarray, dict], float]] = None
     drive: Optional[Callable] = None
     gripper_path: Optional[Callable[[Scene, np.ndarray, dict], np.ndarray]] = None
+    gripper_turns: Optional[Callable[[Scene, np.ndarray, dict], np.ndarray]] = None
     drive_end: Callable[[dict], float] = lambda params: 0.0
     passive: bool = True
     setup: Optional[Callable] = None
     needs_com_x: bool = False
     needs_energy: bool = False
+    needs_wrench: bool = False
     strain_limit: Optional[float] = None
     in_quick: bool = True
     quick_params: tuple = ()
@@ -436,6 +447,17 @@ SCENARIOS: Dict[str, Scenario] = {
         _incline("incline_slide", INCLINE_SLIDE_TILT, across=False),
         _incline("incline_stick_across", INCLINE_STICK_TILT, across=True),
         _incline("incline_slide_across", INCLINE_SLIDE_TILT, across=True),
+        Scenario("torsion", "rod clamped at both ends in zero gravity, one end turned by π; relative error of the "
+                 "end torque against G·J φ / L (models with material frames)",
+                 lambda n, p: twist.twist_scene(n), duration=1.5, quick_duration=1.5, error_kind="relative",
+                 evaluate=twist.torsion_error, gripper_path=twist.torsion_path, gripper_turns=twist.torsion_turns,
+                 drive_end=lambda p: twist.TORSION_RAMP, passive=False, setup=twist.require_frames,
+                 needs_wrench=True),
+        Scenario("arc", "rod clamped at both ends in zero gravity, one end carried onto a quarter circle with its "
+                 "tangent; largest distance to the arc (models with material frames)",
+                 lambda n, p: twist.twist_scene(n), duration=1.0, quick_duration=1.0, error_kind="m",
+                 evaluate=twist.arc_error, gripper_path=twist.arc_path, gripper_turns=twist.arc_turns,
+                 drive_end=lambda p: twist.ARC_SWEEP, passive=False, setup=twist.require_frames),
     )
 }
 

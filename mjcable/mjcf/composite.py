@@ -48,8 +48,13 @@ Pins as in ``joints``: the chain is generated from the pinned end the tree is ro
 (:func:`mjcable.mjcf.joints.tree_order`: particle 0, or particle n when only the far end has a world or gripper
 pin, so ``cableB_first`` then sits at particle n); the root pin through the root's joints (none: free; world pin:
 ball, clamped: none; gripper: ball or none, the chain a child of the mocap body ``gripper{k}``),
-every other pin (sockets always) with site-to-site connect equalities ``pin{k}`` / ``pin{k}_clamp``. A moving
-gripper held by an equality at the far leaf of the chain diverges (see ``joints``).
+every other pin (sockets always) with site-to-site connect equalities ``pin{k}`` / ``pin{k}_clamp`` /
+``pin{k}_roll``. A moving gripper held by an equality at the far leaf of the chain diverges (see ``joints``). A
+stiff cable's end clamp is a clamp body ``clamp{k}`` as in ``joints``
+(:func:`mjcable.mjcf.joints.frame_clamps`), on the plugin too: the plugin's first body (the root's clamp) or last
+(the far end's), its origin half a segment from the particle, so that the plugin bends and twists the end segment
+from the clamp's frame over half a segment (E·I / (l₀/2), G·J / (l₀/2)). MuJoCo's ``<composite>`` has no such
+body: a clamped stiff cable is ours alone.
 """
 
 from __future__ import annotations
@@ -166,12 +171,10 @@ def add_cable(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, self_collis
         parent, origin = spec.body(world.gripper_body(tree_pin)), np.zeros(3)
     else:
         parent, origin = spec.worldbody, p[0]
-    _add_chain(spec, scene, parent, origin, p, order, timestep=timestep, self_collision=self_collision)
+    _add_chain(spec, scene, parent, origin, p, order, kind, timestep=timestep, self_collision=self_collision)
     if not gripper_root:
         joints.add_anchors(spec, scene)
     world.stiffen_obstacle_contacts(spec, scene, timestep)
-    joints.add_root_joints(spec.body(body_name(0, n)), kind, name=f"{PREFIX}J_first",
-                           options=joints.ball_options(scene, timestep))
     spec.body(body_name(n - 1, n)).add_site(name=world.particle_site(order[n]), pos=[l0, 0.0, 0.0])
     for i in range(n - 1):
         spec.add_exclude(bodyname1=body_name(i, n), bodyname2=body_name(i + 1, n))
@@ -180,11 +183,12 @@ def add_cable(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, self_collis
     joints.add_pin_equalities(spec, scene, timestep=timestep, body_name=lambda i: body_name(i, n), skip=tree_pin)
 
 
-def _add_chain(spec: mujoco.MjSpec, scene: Scene, parent, origin: np.ndarray, p: np.ndarray, order: np.ndarray, *,
-               timestep: float, self_collision: bool) -> None:
+def _add_chain(spec: mujoco.MjSpec, scene: Scene, parent, origin: np.ndarray, p: np.ndarray, order: np.ndarray,
+               kind, *, timestep: float, self_collision: bool) -> None:
     """The capsule bodies, ball joints, geoms and sites of the chain under ``parent`` (root body at ``origin`` in
-    it) and, for E > 0, the plugin instance on every body: what ``<composite type="cable" initial="none">`` makes,
-    with exact frames and our contact attributes, armature and damping."""
+    it, with the root's joints ``kind``) and, for E > 0, the plugin instance on every body: what ``<composite
+    type="cable" initial="none">`` makes, with exact frames and our contact attributes, armature and damping; and
+    the clamp bodies at its ends (:func:`mjcable.mjcf.joints.frame_clamps`), on the plugin too."""
     cable = scene.cable
     n = cable.n_segments
     l0 = cable.segment_length
@@ -201,11 +205,15 @@ def _add_chain(spec: mujoco.MjSpec, scene: Scene, parent, origin: np.ndarray, p:
     # Exact frames in the composite's convention: twist-free, x along each segment.
     frames = joints.segment_frames(p)
     rel = joints.relative_quats(frames)
-    body = parent
+    first, last = joints.frame_clamps(scene)
     for i in range(n):
-        pos, quat = (origin, frames[0]) if i == 0 else ([l0, 0.0, 0.0], rel[i - 1])
-        body = body.add_body(name=body_name(i, n), pos=pos, quat=quat)
-        if i > 0:
+        if i == 0:
+            body = joints.add_first_body(parent, scene, kind, pos=origin, quat=frames[0], timestep=timestep,
+                                         name=body_name(0, n), root_name=f"{PREFIX}J_first")
+            if first is not None and plugin is not None:
+                spec.body(joints.clamp_body_name(first)).plugin = plugin
+        else:
+            body = body.add_body(name=body_name(i, n), pos=[l0, 0.0, 0.0], quat=rel[i - 1])
             body.add_joint(name=joint_name(i, n), type=mujoco.mjtJoint.mjJNT_BALL, group=_HIDDEN_GROUP, **options)
         body.add_geom(name=f"{PREFIX}G{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0.0, 0.0, 0.0, l0, 0.0, 0.0],
                       size=[cable.radius, 0.0, 0.0], mass=cable.mass / n, **geom)
@@ -216,4 +224,7 @@ def _add_chain(spec: mujoco.MjSpec, scene: Scene, parent, origin: np.ndarray, p:
         body.add_site(name=world.particle_site(order[i]))
         if plugin is not None:
             body.plugin = plugin
+    clamp = joints.add_last_clamp(body, scene, timestep=timestep)
+    if clamp is not None and plugin is not None:
+        clamp.plugin = plugin
 

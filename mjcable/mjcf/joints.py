@@ -52,9 +52,25 @@ particle n − i; the sites keep their particle numbers). A gripper pin at an en
 the root's pin is part of the tree: a world pin gives the root a ball joint (a clamped world pin none: welded to
 the world); a gripper pin makes the root a child of the mocap body ``gripper{k}`` (ball joint, or none when
 clamped); no such pin gives a free root. Every other pin holds its particle with a site-to-site connect equality
-``pin{k}`` to ``anchor{k}`` (a world site, or a site in the gripper's mocap body); a clamp also connects the
-neighbouring particle (``pin{k}_clamp`` to ``anchor{k}_clamp``), which fixes the tangent, not the twist. A socket
-is always such an equality (it lets go).
+``pin{k}`` to ``anchor{k}`` (a world site, or a site in the gripper's mocap body). A socket is always such an
+equality (it lets go).
+
+Clamps hold the whole frame, the turn about the tangent included: two more connects, a point on the axis one
+segment in (``pin{k}_clamp``) and one off the axis (``pin{k}_roll``, ``ROLL_LEVER`` radii out). A stiff cable's
+clamp at an end (:func:`frame_clamps`) holds the frame *at its particle*, as the rod's clamped boundary does: a
+clamp body ``clamp{k}`` (the clamp's frame: welded to the world or gripper at the tree's root, else held by the
+three connects) from which the end segment turns by a ball joint at the particle with the stiffness of half a
+segment, E·I / (l₀/2) (:func:`add_first_body`, :func:`add_last_clamp`; the cable plugin measures ``composite``'s
+over the half segment between the bodies' origins). The chain then bends and twists over its whole length, as the
+rod does: the clamped arc's end torque, the cantilever's deflection and the twisted rod's torque C φ / L converge as
+O(1/N²), like ``cosserat``'s, where a rigidly held end segment (a limp cable's clamp, and an interior clamp) bends
+and twists over N − 1 joints only (the arc's end torque 1/(N − 1) high and more). The three connects of a clamp
+body have MuJoCo's stiffest impedance at rest (``CLAMP_SOLIMP``: 0.9999, falling to 0.99 beyond 1 mm): a soft
+equality sags under a steady load by (1 − d) times the load over the constraint's effective mass and its stiffness
+1/(2h)², and the fall keeps it soft where a moving gripper's carry violates it by millimetres each step. The sag
+grows with the segments (their mass and armature shrink) and with h²: the quarter-circle arc keeps its end force
+within 1 % of B / R² at the default 2 ms up to 50 segments, at 1 ms (2 substeps) up to 100 (measurements:
+``docs/measurements.md``).
 
 Why the far-end gripper roots the tree: a connect equality at the deepest leaf of a free-rooted 50-segment chain
 is what a moving gripper makes diverge (``unplug``: socket at particle 0, gripper at particle n, mjWARN_BADQACC
@@ -106,6 +122,11 @@ __all__ = [
     "add_anchors",
     "add_pin_equalities",
     "body_name",
+    "clamp_body_name",
+    "frame_clamps",
+    "add_clamp_body",
+    "add_first_body",
+    "add_last_clamp",
     "STABLE_OMEGA_H",
     "WHIP_ARMATURE",
     "WHIP_RELAXATION_STEPS",
@@ -114,6 +135,9 @@ __all__ = [
 #: the cable's properties this model does not use (:attr:`mjcable.catalog.ModelEntry.ignores`)
 IGNORES = {"stretch_stiffness": "its segments are rigid, so the cable is inextensible"}
 ROLL_LEVER = 10.0  # a clamp's roll site sits this many cable radii (at least a segment) off the axis: a stiff turn
+CLAMP_MASS = 1e-3  # a clamp body weighs this fraction of a segment (MuJoCo needs a mass on a body that turns)
+CLAMP_SOLIMP = (0.9999, 0.99, 0.001, 0.5, 2.0)  # a clamp body's connects' impedance (see add_pin_equalities)
+CLAMP_GROUP = 3  # the clamp bodies' geom group (hidden in viewers by default)
 STABLE_OMEGA_H = 1.0  # ω·h of the fastest joint-spring mode the armature allows (semi-implicit Euler's limit is 2)
 WHIP_ARMATURE = 10.0  # α of the ball-joint armature α·(m/n)·l₀² that tames the free-end whip
 WHIP_RELAXATION_STEPS = 20.0  # physics steps in which ball-joint damping relaxes the armature's relative spin
@@ -123,6 +147,11 @@ _PARALLEL_EPS = 1e-12  # |sin| below which two directions count as (anti)paralle
 def body_name(i: int) -> str:
     """Name of segment body ``i``."""
     return f"cable{i}"
+
+
+def clamp_body_name(k: int) -> str:
+    """Name of the clamp body of pin ``k`` (:func:`frame_clamps`)."""
+    return f"clamp{k}"
 
 
 def root_pin(scene: Scene) -> Optional[int]:
@@ -150,24 +179,59 @@ def tree_order(scene: Scene) -> np.ndarray:
     return order[::-1].copy() if k is not None and scene.pin_particle(k) == n else order
 
 
+def frame_clamps(scene: Scene) -> tuple:
+    """``(first, last)``: the index into ``scene.pins`` of the clamp at the tree's first particle and at its last
+    (:func:`tree_order`) that holds its frame in a clamp body, each ``None`` where there is none.
+
+    Only a stiff cable (E > 0) has them: its clamp holds the frame at its particle, and the end segment turns from it
+    through a ball joint over half a segment (stiffness E·I / (l₀/2), see the module docstring). A limp cable's clamp,
+    and a clamp at an interior particle, holds the segment beside it instead (the connects of
+    :func:`add_pin_equalities`).
+    """
+    if scene.cable.young <= 0.0:
+        return None, None
+    order = tree_order(scene)
+    clamps = {scene.pin_particle(k): k for k in reversed(range(len(scene.pins))) if scene.pins[k].clamp}
+    return clamps.get(int(order[0])), clamps.get(int(order[-1]))
+
+
+def add_clamp_body(parent, scene: Scene, k: int, *, pos, quat):
+    """Add pin ``k``'s clamp body to ``parent`` at ``pos`` (m) and ``quat`` (w, x, y, z) in it, and return it.
+
+    The body's frame is its end segment's at the start (x along the chain in tree order); its origin sits half a
+    segment before the particle the clamp holds, which is at (l₀/2, 0, 0) in it: the cable plugin measures a joint's
+    length between body origins, so the clamp's joint gets E·I / (l₀/2) there as in ``joints``. It carries a hidden
+    capsule of the cable's radius that never collides (the plugin reads the section from a body's first geom) and
+    weighs ``CLAMP_MASS`` of a segment (a body that turns needs a mass in MuJoCo).
+    """
+    cable = scene.cable
+    body = parent.add_body(name=clamp_body_name(k), pos=pos, quat=quat)
+    body.add_geom(name=f"{clamp_body_name(k)}_capsule", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                  fromto=[0.0, 0.0, 0.0, 0.5 * cable.segment_length, 0.0, 0.0], size=[cable.radius, 0.0, 0.0],
+                  mass=CLAMP_MASS * cable.mass / cable.n_segments, contype=0, conaffinity=0, group=CLAMP_GROUP,
+                  rgba=[0.0, 0.0, 0.0, 0.0])
+    return body
+
+
 def joint_stiffness(scene: Scene) -> float:
     """Ball-joint bending stiffness E·I / l₀ in N·m/rad (0 for a limp cable)."""
     return scene.cable.bending_stiffness / scene.cable.segment_length
 
 
-def joint_armature(scene: Scene, timestep: float) -> float:
-    """Ball-joint armature in kg·m²: ``WHIP_ARMATURE``·(m/n)·l₀² + (E·I/l₀)·(h / ``STABLE_OMEGA_H``)²."""
+def joint_armature(scene: Scene, timestep: float, *, half: bool = False) -> float:
+    """Ball-joint armature in kg·m²: ``WHIP_ARMATURE``·(m/n)·l₀² + k·(h / ``STABLE_OMEGA_H``)², k the joint's
+    stiffness: E·I/l₀, or a clamp's half-segment joint's (``half``) 2·E·I/l₀."""
     cable = scene.cable
     whip = WHIP_ARMATURE * cable.mass / cable.n_segments * cable.segment_length**2
-    return whip + joint_stiffness(scene) * (timestep / STABLE_OMEGA_H) ** 2
+    return whip + (2.0 if half else 1.0) * joint_stiffness(scene) * (timestep / STABLE_OMEGA_H) ** 2
 
 
-def ball_options(scene: Scene, timestep: float) -> dict:
-    """Armature and damping of every ball joint: :func:`joint_armature` A, and the damping
-    A·(c + 1 / (``WHIP_RELAXATION_STEPS``·h)) in N·m·s/rad: the first part drains the armature's kinetic energy at
-    the cable's damping rate c (the medium drag only reaches the bodies), the second relaxes a joint's relative
-    spin within ``WHIP_RELAXATION_STEPS`` steps (see the module docstring)."""
-    armature = joint_armature(scene, timestep)
+def ball_options(scene: Scene, timestep: float, *, half: bool = False) -> dict:
+    """Armature and damping of a ball joint (``half``: a clamp's half-segment joint): :func:`joint_armature` A, and
+    the damping A·(c + 1 / (``WHIP_RELAXATION_STEPS``·h)) in N·m·s/rad: the first part drains the armature's kinetic
+    energy at the cable's damping rate c (the medium drag only reaches the bodies), the second relaxes a joint's
+    relative spin within ``WHIP_RELAXATION_STEPS`` steps (see the module docstring)."""
+    armature = joint_armature(scene, timestep, half=half)
     rate = scene.cable.damping + 1.0 / (WHIP_RELAXATION_STEPS * timestep)
     return dict(armature=armature, damping=[rate * armature, 0.0, 0.0])
 
@@ -295,34 +359,50 @@ def add_pin_equalities(spec: mujoco.MjSpec, scene: Scene, *, timestep: float, bo
     """Hold every pin but ``skip`` with site-to-site connect equalities (independent of qpos0).
 
     Pin ``k`` connects ``particle{i}`` to ``anchor{k}`` (from :func:`add_anchors`: a world site, or a site in the
-    gripper's mocap body); a clamp also connects the neighbouring particle to ``anchor{k}_clamp`` at its start
-    position, in the same body, and a site off the axis beside the particle (along its body's y axis, in
-    the body ``body_name(b)`` of tree index b that holds the particle) to ``anchor{k}_roll``: three points hold the
-    whole frame, the turn about the tangent included. Equalities are named ``pin{k}``, ``pin{k}_clamp`` and
+    gripper's mocap body); a clamp also connects a point on the cable's axis one segment in (``anchor{k}_clamp``, at
+    the neighbouring particle's start position, in the same body) and a point off the axis beside the particle (along
+    the segment's y axis, ``anchor{k}_roll``): three points hold the whole frame, the turn about the tangent
+    included. The points are sites of the clamp body (:func:`frame_clamps`: ``particle{i}_clamp`` and
+    ``particle{i}_roll``, the frame at the particle, the end segment turning from it), or else of the segment body
+    ``body_name(b)`` (tree index b) beside the particle (``particle{j}``, the neighbour itself, and
+    ``particle{i}_roll``: that segment held rigidly). Equalities are named ``pin{k}``, ``pin{k}_clamp`` and
     ``pin{k}_roll``.
     """
     cable = scene.cable
     n, l0 = cable.n_segments, cable.segment_length
     order = tree_order(scene)
     frames = segment_frames(cable.particles[order])  # the bodies' start orientations, in tree order
+    framed = frame_clamps(scene)
     for k, pin in enumerate(scene.pins):
         if k == skip:
             continue
         i = scene.pin_particle(k)
-        anchor = world.anchor_site(k)
-        world.add_connect(spec, world.pin_equality(k), world.particle_site(i), anchor, timestep=timestep)
-        if pin.clamp:
-            j = scene.clamp_neighbour(k)
-            world.add_connect(spec, world.pin_equality(k, clamp=True), world.particle_site(j),
-                              world.add_clamp_anchor(spec, scene, k), timestep=timestep)
-            b = int(np.flatnonzero(order == i)[0])
-            lever = max(l0, ROLL_LEVER * cable.radius)
-            local = np.array([0.0 if b < n else l0, lever, 0.0])
-            b = min(b, n - 1)  # the last particle sits at the end of the last body
-            spec.body(body_name(b)).add_site(name=world.roll_site(i), pos=local)
-            y_axis = Rotation.from_quat(frames[b], scalar_first=True).apply([0.0, 1.0, 0.0])
-            roll = world.add_roll_anchor(spec, scene, k, cable.particles[i] + lever * y_axis)
-            world.add_connect(spec, world.pin_equality(k, roll=True), world.roll_site(i), roll, timestep=timestep)
+        solimp = CLAMP_SOLIMP if k in framed else world.PIN_SOLIMP
+        world.add_connect(spec, world.pin_equality(k), world.particle_site(i), world.anchor_site(k),
+                          timestep=timestep, solimp=solimp)
+        if not pin.clamp:
+            continue
+        j = scene.clamp_neighbour(k)
+        b = int(np.flatnonzero(order == i)[0])
+        along = 0.0 if b < n else l0  # the last particle sits at the end of the last body
+        b = min(b, n - 1)
+        frame = Rotation.from_quat(frames[b], scalar_first=True)
+        lever = max(l0, ROLL_LEVER * cable.radius)
+        roll_point = cable.particles[i] + lever * frame.apply([0.0, 1.0, 0.0])
+        if k in framed:  # the clamp body's frame: its sites at the neighbour's and the roll point's start positions
+            holder = spec.body(clamp_body_name(k))
+            origin = cable.particles[i] - 0.5 * l0 * frame.apply([1.0, 0.0, 0.0])
+            tangent = world.clamp_site(i)
+            holder.add_site(name=tangent, pos=frame.inv().apply(cable.particles[j] - origin))
+            holder.add_site(name=world.roll_site(i), pos=frame.inv().apply(roll_point - origin))
+        else:  # the segment beside the particle, held rigidly: its neighbour particle and a roll site on it
+            holder, tangent = spec.body(body_name(b)), world.particle_site(j)
+            holder.add_site(name=world.roll_site(i), pos=[along, lever, 0.0])
+        world.add_connect(spec, world.pin_equality(k, clamp=True), tangent, world.add_clamp_anchor(spec, scene, k),
+                          timestep=timestep, solimp=solimp)
+        roll = world.add_roll_anchor(spec, scene, k, roll_point)
+        world.add_connect(spec, world.pin_equality(k, roll=True), world.roll_site(i), roll, timestep=timestep,
+                          solimp=solimp)
 
 
 def root_joint(scene: Scene) -> tuple:
@@ -351,6 +431,42 @@ def add_root_joints(body, kind: Optional[str], *, name: str, options: dict) -> N
         body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_BALL, **options)
 
 
+def add_first_body(parent, scene: Scene, kind: Optional[str], *, pos, quat, timestep: float, name: str,
+                   root_name: str, stiffness: float = 0.0):
+    """Add segment body 0 (``name``) to ``parent`` at ``pos`` and ``quat`` (its start frame in ``parent``) with the
+    root's joints ``kind`` (:func:`add_root_joints`, named ``root_name``), and return it. With a clamp body at
+    the tree's first particle (:func:`frame_clamps`) the clamp body takes that place and the root's joints, and
+    segment 0 hangs from it by the clamp's half-segment ball joint (``stiffness`` in N·m/rad: 2·E·I/l₀ for
+    ``joints``, 0 where the cable plugin bends it)."""
+    first, _ = frame_clamps(scene)
+    root_options = ball_options(scene, timestep)
+    if first is None:
+        segment = parent.add_body(name=name, pos=pos, quat=quat)
+        add_root_joints(segment, kind, name=root_name, options=root_options)
+        return segment
+    along = Rotation.from_quat(quat, scalar_first=True).apply([0.5 * scene.cable.segment_length, 0.0, 0.0])
+    holder = add_clamp_body(parent, scene, first, pos=np.asarray(pos) - along, quat=quat)
+    add_root_joints(holder, kind, name=root_name, options=root_options)
+    segment = holder.add_body(name=name, pos=[0.5 * scene.cable.segment_length, 0.0, 0.0])
+    segment.add_joint(name=f"{clamp_body_name(first)}_ball", type=mujoco.mjtJoint.mjJNT_BALL,
+                      stiffness=[stiffness, 0.0, 0.0], **ball_options(scene, timestep, half=True))
+    return segment
+
+
+def add_last_clamp(last, scene: Scene, *, timestep: float, stiffness: float = 0.0):
+    """The clamp body at the tree's last particle (:func:`frame_clamps`), a child of the last segment body
+    ``last``, turning from it by a half-segment ball joint at the particle (``stiffness`` as in
+    :func:`add_first_body`); returns it, or ``None`` where there is none."""
+    _, k = frame_clamps(scene)
+    if k is None:
+        return None
+    half = 0.5 * scene.cable.segment_length
+    holder = add_clamp_body(last, scene, k, pos=[half, 0.0, 0.0], quat=[1.0, 0.0, 0.0, 0.0])
+    holder.add_joint(name=f"{clamp_body_name(k)}_ball", type=mujoco.mjtJoint.mjJNT_BALL, pos=[half, 0.0, 0.0],
+                     stiffness=[stiffness, 0.0, 0.0], **ball_options(scene, timestep, half=True))
+    return holder
+
+
 def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:
     """The ``joints`` spec of ``scene`` (see the module docstring); MuJoCo steps at ``timestep`` seconds."""
     spec = world.new_spec(scene, timestep=timestep)
@@ -375,8 +491,9 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
         parent, origin = spec.body(world.gripper_body(tree_pin)), np.zeros(3)
     else:
         parent, origin = spec.worldbody, p[0]
-    body = parent.add_body(name=body_name(0), pos=origin, quat=frames[0])
-    add_root_joints(body, kind, name=f"{body_name(0)}_root", options=options)
+    half = 2.0 * joint_stiffness(scene)  # a clamp's half-segment joint
+    body = add_first_body(parent, scene, kind, pos=origin, quat=frames[0], timestep=timestep, name=body_name(0),
+                          root_name=f"{body_name(0)}_root", stiffness=half)
     for i in range(n):
         if i > 0:
             quat = [1.0, 0.0, 0.0, 0.0] if straight else rel[i - 1]
@@ -388,13 +505,17 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
                       **geom)
         body.add_site(name=world.particle_site(order[i]))
     body.add_site(name=world.particle_site(order[n]), pos=[l0, 0.0, 0.0])
+    add_last_clamp(body, scene, timestep=timestep, stiffness=half)
 
     add_pin_equalities(spec, scene, timestep=timestep, body_name=body_name, skip=tree_pin)
     if self_collision:
         world.exclude_overlapping(spec, scene, [body_name(i) for i in range(n)])
     if straight:  # the root is compiled in its start pose: identity root qpos, then the start shape's ball quats
         root = {"free": [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], "ball": [1.0, 0.0, 0.0, 0.0], None: []}[kind]
-        _add_start_key(spec, scene, np.concatenate([root, rel.ravel()]))
+        first, last = frame_clamps(scene)  # the clamps' half-segment joints start unbent
+        identity = [1.0, 0.0, 0.0, 0.0]
+        _add_start_key(spec, scene, np.concatenate([root, identity if first is not None else [], rel.ravel(),
+                                                    identity if last is not None else []]))
     return snap.snap_spec(spec)
 
 

@@ -88,6 +88,12 @@ def roll_site(i: int) -> str:
     return f"particle{i}_roll"
 
 
+def clamp_site(i: int) -> str:
+    """The site on the cable's axis, a segment in from particle ``i``, that the clamp body of a clamp at particle
+    ``i`` holds with its second connect (:func:`mjcable.mjcf.joints.frame_clamps`)."""
+    return f"particle{i}_clamp"
+
+
 def new_spec(scene: Scene, *, timestep: float, base_xml: Optional[str] = None) -> mujoco.MjSpec:
     """A spec holding the scene's world: options, assets, lights, obstacles and the overview camera.
 
@@ -384,7 +390,8 @@ def add_roll_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position: np.ndar
     return name
 
 
-def add_connect(spec: mujoco.MjSpec, name: str, site1: str, site2: str, *, timestep: float) -> None:
+def add_connect(spec: mujoco.MjSpec, name: str, site1: str, site2: str, *, timestep: float,
+                solimp: tuple = PIN_SOLIMP) -> None:
     """A stiff site-to-site ``connect`` equality (independent of qpos0, so models may compile straight)."""
     spec.add_equality(name=name, type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_SITE,
-                      name1=site1, name2=site2, solref=[_PIN_SOLREF_STEPS * timestep, 1.0], solimp=PIN_SOLIMP)
+                      name1=site1, name2=site2, solref=[_PIN_SOLREF_STEPS * timestep, 1.0], solimp=solimp)
