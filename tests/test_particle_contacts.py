@@ -43,13 +43,6 @@ def test_rope_over_a_peg_obeys_the_heavy_capstan_law(model, dt, settings):
 CUT = 3e-4  # m: the start arc's chords cut this deep into the peg
 DROP = 0.02  # m: the same start raised by this much, so that the rope falls onto the peg
 LANDINGS = {"cut": {"clearance": -CUT}, "dropped": {"clearance": -CUT, "lift": DROP}}
-DROPPED_MARGIN = (
-    "known limitation (docs/measurements.md, 2026-11-27, 'why the dropped rope slides 2-3 cm'): the arc lands "
-    "chord by chord, each leg braked by its own side of the arc, so the light leg stops first and every model leaves "
-    "the landing sliding at 0.12-0.17 m/s; the polygonal rope then bounces on the peg, and one Gauss-Seidel sweep "
-    "per substep rings in its legs, so it slides 2.5-3 cm (to about 0.95 of the threshold) where xpbd slides 2.5 cm "
-    "and holds; here it slides")
-DROPPED_MARGIN_CASES = {("jakobsen", 16, 0.002), ("pbd", 16, 0.002)}
 SOFT_LIMITATION = (
     "known limitation (docs/measurements.md, 2026-11-28), warned when the Simulator is made "
     "(test_a_rope_too_soft_to_hold_on_a_peg_warns_with_fixes_that_hold): one Gauss-Seidel sweep per 2 ms stretches "
@@ -67,8 +60,6 @@ def _landing_cases():
                     marks = []
                     if (model, substeps, dt) in SOFT_CASES:
                         marks.append(pytest.mark.xfail(strict=True, reason=SOFT_LIMITATION))
-                    elif landing == "dropped" and (model, substeps, dt) in DROPPED_MARGIN_CASES:
-                        marks.append(pytest.mark.xfail(strict=True, reason=DROPPED_MARGIN))
                     yield pytest.param(model, substeps, dt, landing, marks=marks,
                                        id=f"{model}-{substeps}substeps-{dt * 1e3:g}ms-{landing}")
 

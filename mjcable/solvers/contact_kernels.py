@@ -227,6 +227,30 @@ def reset_friction(S):
     S.fric_normal[:, :] = 0.0
 
 
+@_inline
+def _round_fraction(shapes, row, x, i, s):
+    """The fraction of segment (i, i+1) of ``x`` closest to round obstacle ``row`` of ``shapes`` (a sphere's centre,
+    a cylinder's or capsule's axis line), in [0, 1]; ``s`` (the query's fraction) for every other shape and for a
+    segment parallel to the axis. A chord lying on a round shape touches it at its closest point, which moves along
+    the chord as the chord turns: measured at the query's fraction, the chord's middle could sink between queries
+    (tens of µm on a peg), and the next query's depth came out at the depenetration speed as a bounce."""
+    typ = shapes.type[row]
+    if typ != GEOM_SPHERE and typ != GEOM_CYLINDER and typ != GEOM_CAPSULE:
+        return s
+    pos, rot = shapes.pos, shapes.rot
+    dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+    rx, ry, rz = x[i, 0] - pos[row, 0], x[i, 1] - pos[row, 1], x[i, 2] - pos[row, 2]
+    if typ != GEOM_SPHERE:  # the axis' direction out of both: the closest point to the axis line
+        ax, ay, az = rot[row, 0, 2], rot[row, 1, 2], rot[row, 2, 2]
+        da, ra = dx * ax + dy * ay + dz * az, rx * ax + ry * ay + rz * az
+        dx, dy, dz = dx - da * ax, dy - da * ay, dz - da * az
+        rx, ry, rz = rx - ra * ax, ry - ra * ay, rz - ra * az
+    dd = dx * dx + dy * dy + dz * dz
+    if dd <= _TINY_LENGTH * _TINY_LENGTH:
+        return s
+    return min(max(-(rx * dx + ry * dy + rz * dz) / dd, 0.0), 1.0)
+
+
 @_jit
 def contact_sweep(S):
     """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
@@ -258,6 +282,9 @@ def contact_sweep(S):
         i = seg[c]
         j = i + 1
         s = con_s[c]
+        if k >= 0 and 0.0 < s < 1.0 and con_face[c] != BOX_FACE_FLAT:  # a chord on a round shape: its closest point
+            s = _round_fraction(shapes, k, x, i, s)
+            con_s[c] = s
         a, b = 1.0 - s, s
         wi, wj = w[i], w[j]
         wsum = a * a * wi + b * b * wj
