@@ -220,6 +220,40 @@ def _plane_contact(S):
     contact_kernels.update_anchors(S)
 
 
+@pytest.mark.parametrize("stale", [0.2, 0.5, 0.8])
+def test_a_chord_on_a_peg_is_held_at_its_closest_point_whatever_fraction_the_query_gave(stale):
+    """A 2 cm chord lying level across a cylinder (axis along y), its middle 100 µm inside, with the contact at the
+    fraction ``stale`` (a query's, taken before the chord turned): one contact sweep leaves no point of the chord
+    inside (its closest point, the middle, at the contact distance within 1 µm) and moves the contact to the middle.
+    Measured at the stale fraction 0.2 or 0.8, the chord's point there was outside the peg and the middle stayed the
+    whole 100 µm deep."""
+    peg, half, depth = 0.03, 0.01, 1e-4
+    z = peg + RADIUS - depth
+    x = np.array([[-half, 0.0, z], [half, 0.0, z]])
+    rot = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # the geom's axis (its z) along −y
+    S, a = _state(
+        x=x, x0=x.copy(), w=np.ones(2), react=np.zeros_like(x),
+        shape_type=np.array([mujoco.mjtGeom.mjGEOM_CYLINDER], dtype=np.int64),
+        shape_size=np.array([[peg, 0.1, 0.0]]), shape_pos=np.zeros((1, 3)), shape_rot=rot[None].copy(),
+        shape_moves=np.zeros(1, dtype=np.bool_),
+        con_seg=np.array([0], dtype=np.int64), con_s=np.array([stale]), con_normal=np.array([[0.0, 0.0, 1.0]]),
+        con_offset=np.array([peg + RADIUS]), con_mu=np.array([0.0]), con_shape=np.array([0], dtype=np.int64),
+        con_face=np.array([kernels_layout.BOX_FACE_NONE], dtype=np.int64), con_lam=np.zeros(1),
+        fric_n=np.zeros(2), fric_mu=np.zeros(2), fric_slid=np.zeros(2, dtype=np.bool_), fric_nsum=np.zeros((2, 3)),
+        fric_impulse=np.zeros((2, 3)), fric_normal=np.zeros((2, 3)), fric_ob=np.zeros(2, dtype=np.int64),
+        fric_unit=np.zeros((2, 3)), fric_push=np.zeros((2, 3)), fric_cone=np.zeros(2),
+        anchor=np.zeros((2, 3)), anchor_ob=np.full(2, -1, dtype=np.int64))
+    par = a["par"][0]
+    par["radius"], par["n_con"], par["h"] = RADIUS, 1, 0.0005
+    a["x0"][:, 2] += 0.001  # the substep started above the peg: no old depth to push out slowly
+    contact_kernels.contact_sweep(S)
+    s = np.linspace(0.0, 1.0, 201)[:, None]
+    chord = (1.0 - s) * a["x"][0] + s * a["x"][1]
+    gap = np.hypot(chord[:, 0], chord[:, 2]) - (peg + RADIUS)
+    assert gap.min() > -1e-6, gap.min()
+    assert a["con_s"][0] == pytest.approx(0.5, abs=1e-9)
+
+
 @pytest.mark.parametrize("self_contact", [True, False], ids=["on itself", "on a table"])
 @pytest.mark.parametrize("substeps", [1, 4, 16])
 def test_coulomb_friction_of_a_segment_lying_across_another_as_on_a_table(self_contact, substeps):

@@ -6,7 +6,9 @@ Re-exported by :mod:`mjcable.solvers.kernels`; impacts get more iterations in :m
 segment (i, i+1), the fraction s of its axis point p = (1 − s) xᵢ + s xᵢ₊₁, and the obstacle. In every substep and
 iteration the point is measured against the obstacle's real shape (:func:`shape_distance`: the geom's MuJoCo type,
 size and pose), C = d(p) − r ≥ 0 with r the cable's radius and n = ∇d, so that a cable sliding over a curved
-surface follows it. Meshes and other types keep the detection's half-space n₀·p ≥ n₀·q + r. A contact that stays
+surface follows it; on a sphere, cylinder or capsule the fraction is the segment's closest point to the centre or
+axis, recomputed in every sweep (:func:`_round_fraction`), so that a chord turning on a peg between two queries
+cannot sink into it unseen. Meshes and other types keep the detection's half-space n₀·p ≥ n₀·q + r. A contact that stays
 over one flat face while its query is kept (a static plane, or a static box's face with the point well inside the
 face's edges: :func:`~mjcable.solvers.query_kernels.flatten_contacts`) is measured against that face's plane, the
 same distance with one dot product.
@@ -282,7 +284,8 @@ def contact_sweep(S):
         i = seg[c]
         j = i + 1
         s = con_s[c]
-        if k >= 0 and 0.0 < s < 1.0 and con_face[c] != BOX_FACE_FLAT:  # a chord on a round shape: its closest point
+        shaped = k >= 0 and con_face[c] != BOX_FACE_FLAT  # measured against the shape (a flat face: its plane)
+        if shaped and 0.0 < s < 1.0:  # on a round shape, the chord's closest point
             s = _round_fraction(shapes, k, x, i, s)
             con_s[c] = s
         a, b = 1.0 - s, s
@@ -303,7 +306,7 @@ def contact_sweep(S):
             px = a * x[i, 0] + b * x[j, 0]
             py = a * x[i, 1] + b * x[j, 1]
             pz = a * x[i, 2] + b * x[j, 2]
-        if k >= 0 and con_face[c] != BOX_FACE_FLAT:  # (a flat face's plane is the half-space below)
+        if shaped:  # (a flat face's plane is the half-space below)
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
                                               con_normal[c, 2], con_offset[c], radius, con_face[c])
         else:
