@@ -6,7 +6,9 @@ Re-exported by :mod:`mjcable.solvers.kernels`; impacts get more iterations in :m
 segment (i, i+1), the fraction s of its axis point p = (1 − s) xᵢ + s xᵢ₊₁, and the obstacle. In every substep and
 iteration the point is measured against the obstacle's real shape (:func:`shape_distance`: the geom's MuJoCo type,
 size and pose), C = d(p) − r ≥ 0 with r the cable's radius and n = ∇d, so that a cable sliding over a curved
-surface follows it. Meshes and other types keep the detection's half-space n₀·p ≥ n₀·q + r. A contact that stays
+surface follows it; on a sphere, cylinder or capsule the fraction is the segment's closest point to the centre or
+axis, recomputed in every sweep (:func:`_round_fraction`), so that a chord turning on a peg between two queries
+cannot sink into it unseen. Meshes and other types keep the detection's half-space n₀·p ≥ n₀·q + r. A contact that stays
 over one flat face while its query is kept (a static plane, or a static box's face with the point well inside the
 face's edges: :func:`~mjcable.solvers.query_kernels.flatten_contacts`) is measured against that face's plane, the
 same distance with one dot product.
@@ -227,6 +229,30 @@ def reset_friction(S):
     S.fric_normal[:, :] = 0.0
 
 
+@_inline
+def _round_fraction(shapes, row, x, i, s):
+    """The fraction of segment (i, i+1) of ``x`` closest to round obstacle ``row`` of ``shapes`` (a sphere's centre,
+    a cylinder's or capsule's axis line), in [0, 1]; ``s`` (the query's fraction) for every other shape and for a
+    segment parallel to the axis. A chord lying on a round shape touches it at its closest point, which moves along
+    the chord as the chord turns: measured at the query's fraction, the chord's middle could sink between queries
+    (tens of µm on a peg), and the next query's depth came out at the depenetration speed as a bounce."""
+    typ = shapes.type[row]
+    if typ != GEOM_SPHERE and typ != GEOM_CYLINDER and typ != GEOM_CAPSULE:
+        return s
+    pos, rot = shapes.pos, shapes.rot
+    dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+    rx, ry, rz = x[i, 0] - pos[row, 0], x[i, 1] - pos[row, 1], x[i, 2] - pos[row, 2]
+    if typ != GEOM_SPHERE:  # the axis' direction out of both: the closest point to the axis line
+        ax, ay, az = rot[row, 0, 2], rot[row, 1, 2], rot[row, 2, 2]
+        da, ra = dx * ax + dy * ay + dz * az, rx * ax + ry * ay + rz * az
+        dx, dy, dz = dx - da * ax, dy - da * ay, dz - da * az
+        rx, ry, rz = rx - ra * ax, ry - ra * ay, rz - ra * az
+    dd = dx * dx + dy * dy + dz * dz
+    if dd <= _TINY_LENGTH * _TINY_LENGTH:
+        return s
+    return min(max(-(rx * dx + ry * dy + rz * dz) / dd, 0.0), 1.0)
+
+
 @_jit
 def contact_sweep(S):
     """The state's obstacle contacts (``par.n_con`` of them: segment ``con_seg``, fraction ``con_s``, detection
@@ -258,6 +284,12 @@ def contact_sweep(S):
         i = seg[c]
         j = i + 1
         s = con_s[c]
+        face = con_face[c]
+        flat = face == BOX_FACE_FLAT or face == BOX_FACE_SOLE  # a static plane or face: the half-space below
+        shaped = k >= 0 and not flat  # measured against the shape
+        if shaped and 0.0 < s < 1.0:  # on a round shape, the chord's closest point
+            s = _round_fraction(shapes, k, x, i, s)
+            con_s[c] = s
         a, b = 1.0 - s, s
         wi, wj = w[i], w[j]
         wsum = a * a * wi + b * b * wj
@@ -281,9 +313,7 @@ def contact_sweep(S):
             ox = a * x0[i, 0] + b * x0[j, 0]
             oy = a * x0[i, 1] + b * x0[j, 1]
             oz = a * x0[i, 2] + b * x0[j, 2]
-        face = con_face[c]
-        flat = face == BOX_FACE_FLAT or face == BOX_FACE_SOLE  # (a static plane or face: the half-space below)
-        if k >= 0 and not flat:
+        if shaped:
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
                                               con_normal[c, 2], con_offset[c], radius, con_face[c])
         else:

@@ -173,14 +173,16 @@ def hung_masses(scene: Scene) -> np.ndarray:
     return hung
 
 
-def _chain(scene: Scene, hung: np.ndarray) -> tuple:
+def _chain(scene: Scene, hung: np.ndarray, support: Optional[int] = None) -> tuple:
     """``(w (n + 1,), mass (n + 1,), free (n + 1,) bool)``: the cable's inverse masses with its pinned particles held,
-    except where a body hangs ``hung`` kg on one (then free, carrying that mass)."""
+    except where a body hangs ``hung`` kg on one (then free, carrying that mass), and particle ``support`` held."""
     mass = np.array(scene.cable.particle_masses, dtype=np.float64) + hung
     free = np.ones(len(mass), dtype=bool)
     for k in range(len(scene.pins)):
         i = scene.pin_particle(k)
         free[i] = hung[i] > 0.0
+    if support is not None:
+        free[support] = False
     return np.where(free, 1.0 / mass, 0.0), mass, free
 
 
@@ -266,18 +268,19 @@ def bending_fraction(scene: Scene, rules: Rules, settings: ParticleSettings, h: 
 
 
 def stretch_strain(scene: Scene, rules: Rules, settings: ParticleSettings, h: float, *,
-                   hung: Optional[np.ndarray] = None) -> Optional[float]:
+                   hung: Optional[np.ndarray] = None, support: Optional[int] = None) -> Optional[float]:
     """The largest static strain of the stretch rows under the cable's own weight (and what bodies hang on its pins,
     ``hung`` (n + 1,) kg), acting along the whole straight cable, beyond what the rows' stated compliance gives:
     the stretch that the iterations at substep ``h`` seconds leave unconverged (dimensionless; an upper bound for a
-    cable that hangs slack, whose weight pulls only partly along it).
+    cable that hangs slack, whose weight pulls only partly along it). ``support``: a particle held besides the pins
+    (a cable hanging from an obstacle, a rope over a peg, held where it rests on it).
 
-    Returns ``None`` where there is nothing to say: no pin holds the cable, or more than :data:`MAX_SEGMENTS`
+    Returns ``None`` where there is nothing to say: nothing holds the cable, or more than :data:`MAX_SEGMENTS`
     segments."""
     cable = scene.cable
     n, l0 = cable.n_segments, cable.segment_length
     hung = np.zeros(n + 1) if hung is None else hung
-    w, mass, free = _chain(scene, hung)
+    w, mass, free = _chain(scene, hung, support)
     if n > MAX_SEGMENTS or free.all():
         return None
     if settings.order == "direct" and rules.k_stretch == 1.0:

@@ -22,9 +22,10 @@ until an iteration's largest contact or friction correction is at most ``par.imp
 chain at its substep-start lengths, rather than at its rest lengths, makes the impact inelastic without releasing
 the stretch that the model's own iterations keep (a Gauss-Seidel chain's stretch depends on its iteration count:
 a converged solve in one substep would throw it back as a kick of stretch / h), so substeps that are impacts and
-substeps that are not can follow one another. A cable at rest or sliding pays one comparison per substep: a struck
-contact is at least v_i h deep after the prediction, so :func:`struck` runs only after a contact sweep that removed
-that much (``docs/measurements.md``, 2026-11-27).
+substeps that are not can follow one another. A cable at rest or sliding pays a comparison per iteration: a struck
+contact is at least v_i h deep after the prediction, so :func:`struck` runs only in a substep whose contact sweeps
+removed that much (the most of any of its iterations, ``par.substep_depth``: the first sweep removes the approach;
+``docs/measurements.md``, 2026-11-27).
 
 References:
   [D18] C. Deul, T. Kugelstadt, M. Weiler, J. Bender, "Direct Position-Based Solver for Stiff Rods", CGF 2018.

@@ -156,6 +156,7 @@ def begin_substep(S, sub, n_sub):
     S.lam_b[:] = 0.0
     S.lam_c[:] = 0.0
     S.con_lam[:P.n_con] = 0.0
+    P.substep_depth = 0.0
     S.self_lam_n[:P.n_self] = 0.0
     S.self_lam_t[:P.n_self] = 0.0
 
@@ -228,7 +229,9 @@ def iterate(S, last):
     impact = finished = False
     if n_con:
         deepest = contact_sweep(S)
-        impact = last and _struck(S, deepest)
+        if deepest > P.substep_depth:
+            P.substep_depth = deepest
+        impact = last and _struck(S, P.substep_depth)
         finished = last and not impact and S.impulse_force.shape[0] == 0
         friction_sweep(S, finished)
     if n_self:
@@ -355,8 +358,10 @@ def substep(S, sub, n_sub):
 def _struck(S, deepest):
     """Whether a substep's contacts of a point chain were struck (:func:`~mjcable.solvers.impact_kernels.struck`),
     so that it is resolved as an impact (:func:`~mjcable.solvers.impact_kernels.resolve_impact`). A struck contact's
-    approach alone puts it at least ``impact_speed`` · h deep, so a substep whose last contact sweep removed less
-    (``deepest``, m: a cable at rest, g h²) is not tested."""
+    approach alone puts it at least ``impact_speed`` · h deep after the prediction, so a substep whose contact sweeps
+    removed less (``deepest``, m: ``par.substep_depth``, the most over the substep's iterations; a cable at rest,
+    g h²) is not tested. (The substep's first sweep removes the approach: with several iterations, the last sweep's
+    depth alone missed every impact.)"""
     P = S.par[0]
     return (P.n_con > 0 and P.impact_iterations > 0 and deepest >= P.impact_speed * P.h and S.q.shape[0] == 0
             and struck(S))
@@ -583,7 +588,7 @@ def run_phase(S, phase, sub, n_sub):
         iterate(S, False)
         return 0
     if phase == PHASE_END:
-        if _struck(S, math.inf):
+        if _struck(S, S.par[0].substep_depth):
             resolve_impact(S)
         return end_substep(S, False)
     return 1 if _end_step(S) else 0

@@ -131,8 +131,10 @@ PARAMS = np.dtype([
     ("rod_limp", "?"),
     # impacts (impact_kernels): the approach speed (m/s) from which a pressing contact counts as struck, the most
     # iterations of a struck substep, the contact and friction correction (m) that ends them, and a read-out: the
-    # substeps resolved as impacts since the start
+    # substeps resolved as impacts since the start; the most depth (m) one contact projection removed in the
+    # substep's iterations so far (the impact test's gate: a struck contact is that deep after the prediction)
     ("impact_speed", "f8"), ("impact_iterations", "i8"), ("impact_tol", "f8"), ("impacts", "i8"),
+    ("substep_depth", "f8"),
 ])
 
 
