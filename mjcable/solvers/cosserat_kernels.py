@@ -36,7 +36,9 @@ without bend–twist rows, with :func:`mjcable.solvers.cosserat_direct_kernels.r
 iteration is Newton's step on the constraints (exact where they are linear). Rows with α = 0 get a relative compliance of ``_REGULARIZATION``.
 
 Frames are predicted with q ← q + (h/2) q ⊗ (0, ω) normalised (ω in the body frame, gyroscopic term
-−D (ω × I ω) explicit), and ω = (2/h) Im(q₀̄ ⊗ q) after the solve ([KS16] Eqs. 27–28, [M20] Eq. 8 and Algorithm 2).
+−D (ω × I ω) explicit), and ω = (2/h) Im(q₀̄ ⊗ q) after the solve ([KS16] Eqs. 27–28, [M20] Eq. 8 and Algorithm 2):
+:mod:`mjcable.solvers.cosserat_step_kernels`, which also holds the iteration and the direct solve's nonlinear
+safeguard.
 
 References (and [M16], [M20], [D18] in :mod:`mjcable.solvers.kernels`):
   [KS16] T. Kugelstadt, E. Schömer, "Position and Orientation Based Cosserat Rods", SCA 2016.
@@ -49,10 +51,9 @@ import math
 import numpy as np
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve, rod_direct_limp
-from mjcable.solvers.kernels_layout import ORDER_DIRECT
+from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve
 
-__all__ = ["frames_begin", "frames_end", "clamp_frames", "rod_iterate", "rod_gauss_seidel", "rod_direct"]
+__all__ = ["rod_gauss_seidel", "rod_direct"]
 
 # Relative compliance added to the diagonal of every row of the direct solve (an inextensible rod's α = 0 rows):
 # far below any physical compliance, it keeps J W Jᵀ positive definite where a held end makes rows redundant.
@@ -470,15 +471,32 @@ def _assemble(S, h2, M):
             _put(band, r, 0, M, False)
 
 
+@_inline
+def _rhs_size(rhs, l0):
+    """ρ = max |C + α̃ λ| over the assembled rows (``rhs`` = −C − α̃ λ), each as a strain or an angle: the
+    stretch–shear rows (3 + 6i..) as they are, the bend–twist rows (1/m) times l₀ / 2, the clamps' times l₀ / 4."""
+    rho = 0.0
+    last = rhs.shape[0] - 3
+    for r in range(rhs.shape[0]):
+        m = r % 6
+        scale = 1.0 if m >= 3 else (0.25 * l0 if r < 3 or r >= last else 0.5 * l0)
+        rho = max(rho, scale * abs(rhs[r]))
+    return rho
+
+
 @_jit
 def rod_direct(S, h2):
     """One direct solve of all the rod's constraints ([D18]): linearise and assemble (:func:`_assemble`), solve for
-    Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²)."""
+    Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²). Returns the rows'
+    largest residual before the solve (:func:`_rhs_size`) and a bound on their largest after it,
+    |δb|² + 2 |δb| |Δx| / l₀ (the largest turn and move: the constraints' second-order terms, which the
+    linearisation leaves; :mod:`mjcable.solvers.cosserat_step_kernels`)."""
     P = S.par[0]
     inv_l0 = math.sqrt(P.inv_l0sq)
     t = np.empty((8, 3, 3))
     _assemble(S, h2, t[0])
     rhs = S.cs_rhs
+    rho0 = _rhs_size(rhs, 1.0 / inv_l0)
     block_ldlt_solve(S.cs_band, rhs, t)
     lam_ss, lam_bt, lam_end = S.lam_ss, S.lam_bt, S.lam_end
     n = lam_ss.shape[0]
@@ -505,94 +523,14 @@ def rod_direct(S, h2):
             lam_end[e, 2] += rhs[r + 2]
             _apply_end(S, e, rhs[r], rhs[r + 1], rhs[r + 2], db, False)
     x = S.x
+    s2x = s2b = 0.0  # the largest squared particle move (m²) and frame turn (rad²)
     for p in range(x.shape[0]):
         x[p, 0] += dx[p, 0]
         x[p, 1] += dx[p, 1]
         x[p, 2] += dx[p, 2]
+        s2x = max(s2x, dx[p, 0] * dx[p, 0] + dx[p, 1] * dx[p, 1] + dx[p, 2] * dx[p, 2])
     for i in range(n):
         _rotate_body(S.q, i, db[i, 0], db[i, 1], db[i, 2])
+        s2b = max(s2b, db[i, 0] * db[i, 0] + db[i, 1] * db[i, 1] + db[i, 2] * db[i, 2])
     P.direct_solves += 1
-
-
-@_inline
-def rod_iterate(S):
-    """One iteration of the rod's constraints in the configured order (direct or Gauss-Seidel)."""
-    P = S.par[0]
-    if P.order == ORDER_DIRECT:
-        if P.rod_limp:
-            rod_direct_limp(S, P.h * P.h)
-        else:
-            rod_direct(S, P.h * P.h)
-    else:
-        rod_gauss_seidel(S, P.h * P.h)
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# The frames' substep: prediction and clamps, then angular velocities.
-
-
-@_inline
-def _slerp(a, b, t, out, k):
-    """out[k] ← the unit quaternion a fraction t of the way from a to b (shortest arc)."""
-    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-    sign = 1.0
-    if dot < 0.0:
-        dot, sign = -dot, -1.0
-    if dot > 0.9995:
-        s0, s1 = 1.0 - t, t
-    else:
-        theta = math.acos(dot)
-        s0, s1 = math.sin((1.0 - t) * theta) / math.sin(theta), math.sin(t * theta) / math.sin(theta)
-    norm = 0.0
-    for c in range(4):
-        out[k, c] = s0 * a[c] + sign * s1 * b[c]
-        norm += out[k, c] * out[k, c]
-    inv = 1.0 / math.sqrt(norm)
-    for c in range(4):
-        out[k, c] *= inv
-
-
-@_jit
-def clamp_frames(S, frac):
-    """The clamps' frames ``clamp_q`` a fraction ``frac`` of the way through the step: a slerp from ``clamp_qfrom``
-    to ``clamp_qto`` (grippers and the world's clamps, like the pins' positions; the host then sets a body clamp's
-    frame from its body, :func:`mjcable.solvers.host_kernels.host_before`)."""
-    for k in range(S.clamp_q.shape[0]):
-        _slerp(S.clamp_qfrom[k], S.clamp_qto[k], frac, S.clamp_q, k)
-
-
-@_jit
-def frames_begin(S, sub, n_sub):
-    """Predict the frames (q₀ ← q; ω ← e^{−c h} ω − h D (ω × I ω); q ← q + (h/2) q ⊗ (0, ω), normalised), move the
-    clamps' frames to their targets (:func:`clamp_frames`; in a user world the host did), and reset the rod's
-    multipliers and the clamps' reactions."""
-    P = S.par[0]
-    h, damp = P.h, P.damp
-    q, q0, om, inertia, wq = S.q, S.q0, S.omega, S.inertia, S.wq
-    for i in range(q.shape[0]):
-        q0[i, 0], q0[i, 1], q0[i, 2], q0[i, 3] = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-        wx, wy, wz = om[i, 0], om[i, 1], om[i, 2]
-        lx, ly, lz = inertia[i, 0] * wx, inertia[i, 1] * wy, inertia[i, 2] * wz
-        om[i, 0] = damp * wx - h * wq[i, 0] * (wy * lz - wz * ly)
-        om[i, 1] = damp * wy - h * wq[i, 1] * (wz * lx - wx * lz)
-        om[i, 2] = damp * wz - h * wq[i, 2] * (wx * ly - wy * lx)
-        _rotate_body(q, i, h * om[i, 0], h * om[i, 1], h * om[i, 2])
-    if not P.host:  # (in a user world the host turned the clamps' frames: clamp_frames)
-        clamp_frames(S, (sub + 1.0) / n_sub)
-    for k in range(S.clamp_q.shape[0]):
-        S.clamp_react[k, 0] = S.clamp_react[k, 1] = S.clamp_react[k, 2] = 0.0
-    S.lam_ss[:, :] = 0.0
-    S.lam_bt[:, :] = 0.0
-    S.lam_end[:, :] = 0.0
-
-
-@_jit
-def frames_end(S):
-    """The frames' angular velocities ω = (2/h) Im(q̄₀ ⊗ q) (body frame, sign of the shorter arc)."""
-    q, q0, om = S.q, S.q0, S.omega
-    k = 2.0 / S.par[0].h
-    for i in range(q.shape[0]):
-        rw, rx, ry, rz = _qmul(q0[i, 0], -q0[i, 1], -q0[i, 2], -q0[i, 3], q[i, 0], q[i, 1], q[i, 2], q[i, 3])
-        if rw < 0.0:
-            rx, ry, rz = -rx, -ry, -rz
-        om[i, 0], om[i, 1], om[i, 2] = k * rx, k * ry, k * rz
+    return rho0, s2b + 2.0 * math.sqrt(s2b * s2x) * inv_l0

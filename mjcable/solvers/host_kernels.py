@@ -39,7 +39,7 @@ from numba.extending import intrinsic
 
 from mjcable.solvers import impulse_kernels
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.cosserat_kernels import clamp_frames
+from mjcable.solvers.cosserat_step_kernels import clamp_frames
 from mjcable.solvers.query_kernels import _call_model_data, refresh_moving
 
 __all__ = ["host_begin_step", "host_before", "host_after", "host_end_step", "pin_axis_jacobian", "dot", "turn_clamp",
