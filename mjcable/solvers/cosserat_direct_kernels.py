@@ -36,7 +36,7 @@ _REGULARIZATION = 1e-10
 @_inline
 def _push(x, react, wp, p, fx, fy, fz):
     """Particle p moves by wp f; a held particle (wp = 0) also collects f in ``react`` (no else branch: measured
-    slower). Returns the move's square, wp² |f|² (m²)."""
+    slower)."""
     x[p, 0] += wp * fx
     x[p, 1] += wp * fy
     x[p, 2] += wp * fz
@@ -44,14 +44,11 @@ def _push(x, react, wp, p, fx, fy, fz):
         react[p, 0] += fx
         react[p, 1] += fy
         react[p, 2] += fz
-    return wp * wp * (fx * fx + fy * fy + fz * fz)
 
 
 @_jit
 def rod_direct_limp(S, h2):
-    """One direct solve of a limp rod's stretch–shear rows (see the module docstring; ``h2`` = h², s²). Returns the
-    rows' largest residual |C + α̃ λ| before the solve and the bound |δb|² + 2 |δb| |Δx| / l₀ on it after
-    (:func:`mjcable.solvers.cosserat_kernels.rod_direct`)."""
+    """One direct solve of a limp rod's stretch–shear rows (see the module docstring; ``h2`` = h², s²)."""
     P = S.par[0]
     inv_l0sq = P.inv_l0sq
     inv_l0 = math.sqrt(inv_l0sq)
@@ -59,7 +56,6 @@ def rod_direct_limp(S, h2):
     x, w, q, wq, lam, react, sc = S.x, S.w, S.q, S.wq, S.lam_ss, S.react, S.cs_band
     n = q.shape[0]
     gx = gy = gz = 0.0  # g_{i−1}
-    rho0 = s2x = s2b = 0.0  # the residual before; the largest squared move (m²) and turn (rad²)
     i00 = i11 = i22 = i01 = i02 = i12 = 0.0  # S_{i−1}⁻¹
     for i in range(n):
         qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
@@ -75,7 +71,6 @@ def rod_direct_limp(S, h2):
         m0 = -b0 - a0 * lam[i, 0]  # −C − α̃ λ (material)
         m1 = -b1 - a1 * lam[i, 1]
         m2 = -(b2 - 1.0) - a2 * lam[i, 2]
-        rho0 = max(rho0, abs(m0), abs(m1), abs(m2))
         rx = r00 * m0 + r01 * m1 + r02 * m2
         ry = r10 * m0 + r11 * m1 + r12 * m2
         rz = r20 * m0 + r21 * m1 + r22 * m2
@@ -151,14 +146,13 @@ def rod_direct_limp(S, h2):
         lam[i, 1] += m1
         lam[i, 2] += m2
         fx, fy, fz = lx * inv_l0, ly * inv_l0, lz * inv_l0
-        s2x = max(s2x, _push(x, react, w[i + 1], i + 1, fx - px, fy - py, fz - pz))  # i and i + 1 share it
+        _push(x, react, w[i + 1], i + 1, fx - px, fy - py, fz - pz)  # segments i and i + 1 share particle i + 1
         px, py, pz = fx, fy, fz
         j += n
         b0, b1, b2 = sc[j, 0], sc[j, 1], sc[j, 2]
         bx = wq[i, 0] * (b2 * m1 - b1 * m2)  # δb = D [ū]×ᵀ Δλ
         by = wq[i, 1] * (b0 * m2 - b2 * m0)
         bz = wq[i, 2] * (b1 * m0 - b0 * m1)
-        s2b = max(s2b, bx * bx + by * by + bz * bz)
         qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]  # q ← q ⊗ (1, δb/2), normalised
         hx, hy, hz = 0.5 * bx, 0.5 * by, 0.5 * bz
         nw = qw - qx * hx - qy * hy - qz * hz
@@ -167,9 +161,8 @@ def rod_direct_limp(S, h2):
         nz = qz + qw * hz + qx * hy - qy * hx
         inv = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
         q[i, 0], q[i, 1], q[i, 2], q[i, 3] = nw * inv, nx * inv, ny * inv, nz * inv
-    s2x = max(s2x, _push(x, react, w[0], 0, -px, -py, -pz))
+    _push(x, react, w[0], 0, -px, -py, -pz)
     P.direct_solves += 1
-    return rho0, s2b + 2.0 * math.sqrt(s2b * s2x) * inv_l0
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -471,32 +471,18 @@ def _assemble(S, h2, M):
             _put(band, r, 0, M, False)
 
 
-@_inline
-def _rhs_size(rhs, l0):
-    """ρ = max |C + α̃ λ| over the assembled rows (``rhs`` = −C − α̃ λ), each as a strain or an angle: the
-    stretch–shear rows (3 + 6i..) as they are, the bend–twist rows (1/m) times l₀ / 2, the clamps' times l₀ / 4."""
-    rho = 0.0
-    last = rhs.shape[0] - 3
-    for r in range(rhs.shape[0]):
-        m = r % 6
-        scale = 1.0 if m >= 3 else (0.25 * l0 if r < 3 or r >= last else 0.5 * l0)
-        rho = max(rho, scale * abs(rhs[r]))
-    return rho
-
-
 @_jit
 def rod_direct(S, h2):
     """One direct solve of all the rod's constraints ([D18]): linearise and assemble (:func:`_assemble`), solve for
-    Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²). Returns the rows'
-    largest residual before the solve (:func:`_rhs_size`) and a bound on their largest after it,
-    |δb|² + 2 |δb| |Δx| / l₀ (the largest turn and move: the constraints' second-order terms, which the
-    linearisation leaves; :mod:`mjcable.solvers.cosserat_step_kernels`)."""
+    Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²). Returns a bound on the
+    rows' largest residual after it, |δb|² + 2 |δb| |Δx| / l₀ (the constraints' second-order terms, which the
+    linearisation leaves; |δb|² and |Δx|² summed over the frames and particles, which bounds the largest without a
+    branch; :mod:`mjcable.solvers.cosserat_step_kernels`)."""
     P = S.par[0]
     inv_l0 = math.sqrt(P.inv_l0sq)
     t = np.empty((8, 3, 3))
     _assemble(S, h2, t[0])
     rhs = S.cs_rhs
-    rho0 = _rhs_size(rhs, 1.0 / inv_l0)
     block_ldlt_solve(S.cs_band, rhs, t)
     lam_ss, lam_bt, lam_end = S.lam_ss, S.lam_bt, S.lam_end
     n = lam_ss.shape[0]
@@ -523,14 +509,14 @@ def rod_direct(S, h2):
             lam_end[e, 2] += rhs[r + 2]
             _apply_end(S, e, rhs[r], rhs[r + 1], rhs[r + 2], db, False)
     x = S.x
-    s2x = s2b = 0.0  # the largest squared particle move (m²) and frame turn (rad²)
+    s2x = s2b = 0.0  # Σ of the squared particle moves (m²) and frame turns (rad²): bounds of the largest
     for p in range(x.shape[0]):
         x[p, 0] += dx[p, 0]
         x[p, 1] += dx[p, 1]
         x[p, 2] += dx[p, 2]
-        s2x = max(s2x, dx[p, 0] * dx[p, 0] + dx[p, 1] * dx[p, 1] + dx[p, 2] * dx[p, 2])
+        s2x += dx[p, 0] * dx[p, 0] + dx[p, 1] * dx[p, 1] + dx[p, 2] * dx[p, 2]
     for i in range(n):
         _rotate_body(S.q, i, db[i, 0], db[i, 1], db[i, 2])
-        s2b = max(s2b, db[i, 0] * db[i, 0] + db[i, 1] * db[i, 1] + db[i, 2] * db[i, 2])
+        s2b += db[i, 0] * db[i, 0] + db[i, 1] * db[i, 1] + db[i, 2] * db[i, 2]
     P.direct_solves += 1
-    return rho0, s2b + 2.0 * math.sqrt(s2b * s2x) * inv_l0
+    return s2b + 2.0 * math.sqrt(s2b * s2x) * inv_l0

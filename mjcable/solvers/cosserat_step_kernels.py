@@ -9,23 +9,27 @@ terms, up to |δb|² + 2 |δb| |Δx| / l₀ in the rows' residuals (each as a st
 as they are, the bend–twist rows times l₀ / 2, the clamps' times l₀ / 4). When a gripper yanks the rod's end (a
 limp rope's at 20 m/s, dt = 2 ms, 4 substeps) one solve turns frames by radians and moves particles by segments,
 the residual grows from solve to solve, and the rope is torn apart (strain 5 within three steps). So each solve
-returns the rows' largest residual before it, ρ₀, and that bound after it:
+returns that bound:
 
 * bound ≤ ρ_floor (``_RESIDUAL_FLOOR``): the solve is accepted without looking further (the normal case: a hanging
-  or falling rod's solves turn its frames by milliradians; the check costs two maxima per solve);
+  or falling rod's solves turn its frames by milliradians; the check costs two sums over the solve's moves). A limp
+  rod's solve, whose loop is a third as long, computes no bound (the sums measured 18 % of a rope's step): its
+  solve is accepted unless a pin moves by more than ``_ROPE_YANK`` segments in the substep (a yank);
 * else the rows' residual after the solve, ρ (one pass over the rod, :func:`rod_residual`): at most ρ_floor, the
-  solve is accepted; if it shrank to at most κ (``_CONTRACTION``) of the residual before, Newton converges and
-  another step (a re-linearised solve) follows, at most ``_MAX_SOLVES`` solves in all, each accepted on the same
-  terms; if it did not shrink so, Newton stalls, and the last solve stands, except on a limp rod (a rope: no
-  bend–twist rows, hard stretch–shear rows), whose frames are then turned onto their segments by the least rotation
-  (the shear rows' exact projection onto frames that turn hundreds of times more easily than the particles move,
-  which a linearisation about frames turned far from their segments misses), once, before Newton goes on;
-* if ρ is then above ρ₀ (Newton diverging), one Gauss-Seidel sweep of the same constraints follows
+  solve is accepted; otherwise another Newton step (a re-linearised solve) follows, accepted on the same terms, and
+  more while each shrinks the residual to at most κ (``_CONTRACTION``) of the one before, at most ``_MAX_SOLVES``
+  solves in all. Where a step does not shrink it so, Newton stalls, and the last solve stands, except on a limp rod
+  (a rope: no bend–twist rows, hard stretch–shear rows), whose frames are then turned onto their segments by the
+  least rotation (the shear rows' exact projection onto frames that turn hundreds of times more easily than the
+  particles move, which a linearisation about frames turned far from their segments misses), once, before Newton
+  goes on;
+* if ρ is then above the first solve's (Newton diverging), one Gauss-Seidel sweep of the same constraints follows
   (:func:`mjcable.solvers.cosserat_kernels.rod_gauss_seidel`), each constraint's block solved on its own.
 
-``xpbd``'s safeguard accepts a residual halved; the rod's Newton steps go on to the floor while they converge,
-since one solve that halves a yank's residual still leaves the rod stretched by tens of percent
-(``docs/measurements.md``). Converging the same implicit step further leaves XPBD's stiffness as it is.
+``xpbd``'s safeguard accepts a solve that halves the residual before it; the rod's Newton steps go on to the floor
+while they converge, since one solve that halves a yank's residual still leaves it at tens of percent, and they
+need no residual before the solve (a pass over the rows in every solve: measured 10–20 % of a rod's step;
+``docs/measurements.md``). Converging the same implicit step further leaves XPBD's stiffness as it is.
 """
 
 from __future__ import annotations
@@ -42,11 +46,14 @@ from mjcable.solvers.kernels_layout import ORDER_DIRECT
 __all__ = ["rod_iterate", "rod_residual", "rod_direct_safeguarded", "frames_begin", "frames_end", "clamp_frames"]
 
 # The safeguard (see the module docstring): a solve whose bound on the residual after it, or whose residual, is at
-# most _RESIDUAL_FLOOR (a strain, or an angle in rad) is accepted; one whose residual shrank to at most _CONTRACTION
-# of the one before it is followed by another; at most _MAX_SOLVES solves per iteration in all.
-_RESIDUAL_FLOOR = 1e-4
+# most _RESIDUAL_FLOOR (a strain, or an angle in rad) is accepted; else another follows, and more while each shrinks
+# the residual to at most _CONTRACTION of the one before; at most _MAX_SOLVES solves per iteration in all.
+_RESIDUAL_FLOOR = 1e-3
 _CONTRACTION = 0.5
 _MAX_SOLVES = 8
+# A limp rod's solve returns no bound (its two sums in the solve's loop cost 18 % of a rope's step, measured on
+# ``hang``): its safeguard runs in the substeps whose pins move by more than _ROPE_YANK segment lengths each.
+_ROPE_YANK = 0.1
 
 
 @_jit
@@ -81,10 +88,26 @@ def rod_residual(S, h2):
 
 @_inline
 def _solve(S, h2):
-    """One direct solve (a limp rod's over its stretch–shear rows): (ρ₀, the bound on ρ after it)."""
+    """One direct solve (a limp rod's over its stretch–shear rows); returns the bound on the residual after it (a
+    limp rod's: none, inf)."""
     if S.par[0].rod_limp:
-        return rod_direct_limp(S, h2)
+        rod_direct_limp(S, h2)
+        return math.inf
     return rod_direct(S, h2)
+
+
+@_inline
+def _pins_travel(S):
+    """The farthest a pin's target moves in one of the step's substeps, in segment lengths: |pin_to − pin_from| /
+    substeps / l₀."""
+    P = S.par[0]
+    top = 0.0
+    for k in range(S.pin_p.shape[0]):
+        d0 = S.pin_to[k, 0] - S.pin_from[k, 0]
+        d1 = S.pin_to[k, 1] - S.pin_from[k, 1]
+        d2 = S.pin_to[k, 2] - S.pin_from[k, 2]
+        top = max(top, d0 * d0 + d1 * d1 + d2 * d2)
+    return math.sqrt(top * P.inv_l0sq) / P.substeps
 
 
 @_jit
@@ -109,26 +132,40 @@ def _align_frames(S):
         q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _qmul(rw * inv, rx * inv, ry * inv, rz * inv, w, a, b, c)
 
 
-@_jit
+@_inline
 def rod_direct_safeguarded(S, h2):
-    """One direct iteration with the nonlinear safeguard of the module docstring (``h2`` = h², s²)."""
-    rho0, bound = _solve(S, h2)
-    prev = rho = rho0
+    """One direct iteration with the nonlinear safeguard of the module docstring (``h2`` = h², s²): the first solve,
+    and where its bound is above the floor (a limp rod: where a pin moves more than ``_ROPE_YANK`` segments in a
+    substep), :func:`_newton`."""
+    if S.par[0].rod_limp:
+        rod_direct_limp(S, h2)
+        if _pins_travel(S) > _ROPE_YANK:
+            _newton(S, h2)
+    elif rod_direct(S, h2) > _RESIDUAL_FLOOR:
+        _newton(S, h2)
+
+
+@_jit
+def _newton(S, h2):
+    """The safeguard's further Newton steps after a first solve whose bound is above the floor (see the module
+    docstring)."""
+    first = rho = rod_residual(S, h2)
+    prev = math.inf  # (the first solve is always followed by another where its residual is above the floor)
     aligned = not S.par[0].rod_limp
-    for k in range(_MAX_SOLVES):
-        if bound <= _RESIDUAL_FLOOR:
+    for _ in range(_MAX_SOLVES - 1):
+        if rho <= _RESIDUAL_FLOOR:
             return
-        rho = rod_residual(S, h2)
-        if rho <= _RESIDUAL_FLOOR or k == _MAX_SOLVES - 1:
-            break
         if rho > _CONTRACTION * prev:  # Newton stalls: a limp rod's frames are put along their segments, once
             if aligned:
                 break
             _align_frames(S)
             aligned = True
         prev = rho
-        _, bound = _solve(S, h2)
-    if rho > rho0:  # Newton diverging: the constraints one by one
+        bound = _solve(S, h2)
+        if bound <= _RESIDUAL_FLOOR:
+            return
+        rho = rod_residual(S, h2)
+    if rho > first:  # Newton diverging: the constraints one by one
         rod_gauss_seidel(S, h2)
 
 
@@ -193,7 +230,7 @@ def frames_begin(S, sub, n_sub):
         om[i, 1] = damp * wy - h * wq[i, 1] * (wz * lx - wx * lz)
         om[i, 2] = damp * wz - h * wq[i, 2] * (wx * ly - wy * lx)
         _rotate_body(q, i, h * om[i, 0], h * om[i, 1], h * om[i, 2])
-    if not P.host:  # (in a user world the host turned the clamps' frames: clamp_frames)
+    if not P.host and S.clamp_q.shape[0]:  # (in a user world the host turned the clamps' frames: clamp_frames)
         clamp_frames(S, (sub + 1.0) / n_sub)
     for k in range(S.clamp_q.shape[0]):
         S.clamp_react[k, 0] = S.clamp_react[k, 1] = S.clamp_react[k, 2] = 0.0
