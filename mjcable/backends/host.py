@@ -27,7 +27,18 @@ its centre of mass, pulled along it. Its limits: the scalar w_b ignores how the 
 cable and, in the world's own constraints (contacts, joint limits, other equalities), how it answers at all during
 the substep; what the body does instead shows up as the next substep's starting mismatch, which the particle then
 follows. With Gauss-Seidel orders, a mass ratio w_b / w_cable far below 1 needs iterations (or ``order="direct"``)
-to carry the body's weight without stretch, as any heavy end mass does.
+to carry the body's weight without stretch, as any heavy end mass does. w_b comes from M, while MuJoCo's Euler step
+divides by M + h·D (its implicit joint damping): where a joint's h·b is not small against the body's inertia, the
+body moves less than the coupling assumed.
+
+A clamp. ``xpbd``'s holds the tangent along a direction fixed in the body (turned with it in the trial step); its
+rows act on the pinned particle and its neighbour, and only the pinned particle's share reaches the body, so the
+body feels no moment. ``cosserat``'s (a rod with frames) holds the segment's whole frame in the body, both ways: the
+clamp's frame is predicted where the trial step turns the body (q_body ⊗ q_local, ``clamp_qlocal``) and turns in
+the rod's solve with the body's inverse rotational inertia W = J_r M⁻¹ J_rᵀ (``mj_jac``'s rotational Jacobian,
+``mj_solveM``; :mod:`mjcable.solvers.cosserat_kernels`); the torque it received, τ = Σ R_c ∇_c Cᵀ Δλ / h², goes to
+the body with the pin's force (``xfrc_applied``), so the real step turns the body where the solve turned the frame
+(exactly for a hinge). As with w_b, W ignores the cross terms between the point's translation and the body's turn.
 
 Two-way contacts. The cable's contacts with the world's geoms (:mod:`mjcable.solvers.contacts`) act on the
 world's dynamic bodies (not welded to the world nor to a mocap body: ``body_weldid`` ≠ 0 and not mocap), once per
