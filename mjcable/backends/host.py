@@ -161,7 +161,8 @@ class Host:
 
     def reset(self, arrays: dict) -> None:
         """After the data's reset: the body pins' targets at their points, the clamps' directions (a rod's: frames)
-        in their bodies, and one step of the world through the bindings, undone (an error of the starting state raises here)."""
+        in their bodies, and one step of the world through the bindings, undone (an error of the starting state
+        raises here)."""
         m, d = self.m, self.d
         mujoco.mj_forward(m, d)
         points = d.site_xpos[self.sites]
