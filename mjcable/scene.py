@@ -277,7 +277,8 @@ class Pin:
       offset: ``(3,)`` m, the held point in ``body``'s frame; only for ``kind="body"``. At the start it must lie
         within :data:`BODY_PIN_TOLERANCE` of the pinned particle.
       clamp: also hold the cable's tangent at the pin (a cantilever root); a body clamp holds the direction the
-        tangent has at the start, expressed in the body's frame.
+        tangent has at the start, expressed in the body's frame (a rod with frames, ``cosserat``: the whole frame,
+        and the body feels the rod's torque).
       release_force: force in newtons above which a socket lets go (> 0); only for ``kind="socket"``.
     """
 

@@ -27,7 +27,18 @@ its centre of mass, pulled along it. Its limits: the scalar w_b ignores how the 
 cable and, in the world's own constraints (contacts, joint limits, other equalities), how it answers at all during
 the substep; what the body does instead shows up as the next substep's starting mismatch, which the particle then
 follows. With Gauss-Seidel orders, a mass ratio w_b / w_cable far below 1 needs iterations (or ``order="direct"``)
-to carry the body's weight without stretch, as any heavy end mass does.
+to carry the body's weight without stretch, as any heavy end mass does. w_b comes from M, while MuJoCo's Euler step
+divides by M + h·D (its implicit joint damping): where a joint's h·b is not small against the body's inertia, the
+body moves less than the coupling assumed.
+
+A clamp. ``xpbd``'s holds the tangent along a direction fixed in the body (turned with it in the trial step); its
+rows act on the pinned particle and its neighbour, and only the pinned particle's share reaches the body, so the
+body feels no moment. ``cosserat``'s (a rod with frames) holds the segment's whole frame in the body, both ways: the
+clamp's frame is predicted where the trial step turns the body (q_body ⊗ q_local, ``clamp_qlocal``) and turns in
+the rod's solve with the body's inverse rotational inertia W = J_r M⁻¹ J_rᵀ (``mj_jac``'s rotational Jacobian,
+``mj_solveM``; :mod:`mjcable.solvers.cosserat_kernels`); the torque it received, τ = Σ R_c ∇_c Cᵀ Δλ / h², goes to
+the body with the pin's force (``xfrc_applied``), so the real step turns the body where the solve turned the frame
+(exactly for a hinge). As with w_b, W ignores the cross terms between the point's translation and the body's turn.
 
 Two-way contacts. The cable's contacts with the world's geoms (:mod:`mjcable.solvers.contacts`) act on the
 world's dynamic bodies (not welded to the world nor to a mocap body: ``body_weldid`` ≠ 0 and not mocap), once per
@@ -76,6 +87,7 @@ from mjcable.mjcf import world
 from mjcable.scene import Scene
 from mjcable.solvers import capi
 from mjcable.solvers.contacts import ObstacleContacts
+from mjcable.solvers.state import quat_mul
 
 __all__ = ["Host"]
 
@@ -91,6 +103,8 @@ class Host:
       mj_model, mj_data: the compiled proxy in the user's world; timestep h.
       obstacles: the cable's contacts with the world's geoms (``None``: none); those on dynamic bodies get the
         contacts' reactions.
+      frames: the cable is a rod with material frames (``cosserat``): a body clamp holds its frame in the body,
+        which feels the rod's torque.
 
     Raises:
       RuntimeError: MuJoCo's C API is unavailable (:func:`mjcable.solvers.capi.host_unavailable` says why): the host
@@ -98,7 +112,7 @@ class Host:
     """
 
     def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData,
-                 obstacles: Optional[ObstacleContacts] = None):
+                 obstacles: Optional[ObstacleContacts] = None, *, frames: bool = False):
         fns = capi.host_functions()
         if fns is None:
             raise RuntimeError("the particle solvers step a user world through MuJoCo's C API, which is unavailable "
@@ -132,29 +146,33 @@ class Host:
             link_pin=self.pins, link_particle=self.particles,
             link_neighbour=np.array([scene.clamp_neighbour(k) for k in pins], dtype=np.int64), link_body=bodies,
             link_site=self.sites, link_clamp=self._clamps, clamp_local=np.zeros((len(self._clamps), 3, 2)),
-            site_xpos=d.site_xpos, xipos=d.xipos, xmat=d.xmat, xfrc_applied=d.xfrc_applied,
+            clamp_qlocal=np.zeros((len(self._clamps) if frames else 0, 4)),
+            site_xpos=d.site_xpos, xipos=d.xipos, xmat=d.xmat, xquat=d.xquat, xfrc_applied=d.xfrc_applied,
             warning_number=d.warning.number, bad=np.array([int(w) for w in _BAD], dtype=np.int64),
             wrench_rows=rows, wrench_bodies=row_bodies, contact_wrench=np.zeros((m.nbody, 6)),
             impulse_force=np.zeros((n_rows, 3)), impulse_moment=np.zeros((n_rows, 3)),
             saved=np.zeros(nstate), jacp=np.zeros((3, m.nv)), jn=np.zeros((1, m.nv)), solved=np.zeros((1, m.nv)),
             p0=np.zeros((L, 3)), arm=np.zeros((L, 3)), free=np.zeros((L, 3)), free_w=np.zeros(L),
-            force=np.zeros((L, 3)), applied=np.zeros((L, 6)))
+            force=np.zeros((L, 3)), applied=np.zeros((L, 6)), jacr=np.zeros((3, m.nv)), solved_r=np.zeros((3, m.nv)))
         self.params = dict(host=True, fn_step=fns.step, fn_kinematics=fns.kinematics, fn_get_state=fns.get_state,
                            fn_set_state=fns.set_state, fn_jac=fns.jac, fn_solve_m=fns.solve_m,
                            model=capi.model_address(m), data=int(d._address), state_sig=int(_STATE), nv=m.nv,
                            nstate=nstate)
 
     def reset(self, arrays: dict) -> None:
-        """After the data's reset: the body pins' targets at their points, the clamps' directions in their bodies,
-        and one step of the world through the bindings, undone (an error of the starting state raises here)."""
+        """After the data's reset: the body pins' targets at their points, the clamps' directions (a rod's: frames)
+        in their bodies, and one step of the world through the bindings, undone (an error of the starting state
+        raises here)."""
         m, d = self.m, self.d
         mujoco.mj_forward(m, d)
         points = d.site_xpos[self.sites]
         arrays["pin_from"][self.pins] = points
         arrays["pin_to"][self.pins] = points
-        local = arrays["clamp_local"]
+        local, qlocal = arrays["clamp_local"], arrays["clamp_qlocal"]
         for k, (row, b) in enumerate(self._clamps):
             local[k] = d.xmat[b].reshape(3, 3).T @ arrays["clamp_dir"][row].T
+            if len(qlocal):  # a rod's clamped frame in its body: q̄_body ⊗ q_clamp
+                qlocal[k] = quat_mul(d.xquat[b] * [1.0, -1.0, -1.0, -1.0], arrays["clamp_q"][row])
         warnings = d.warning.number.copy()
         mujoco.mj_getState(m, d, self._saved, _STATE)
         mujoco.mj_step(m, d)

@@ -113,7 +113,8 @@ class ParticleBackend:
         if o is not None:
             a.update(o.arrays())
             self._connect_query()
-        self._host = host_world.Host(scene, m, d, o) if scene.world is not None else None
+        self._host = (host_world.Host(scene, m, d, o, frames=a.q.shape[0] > 0) if scene.world is not None
+                      else None)
         if self._host is not None:
             a.update(self._host.fields)
             for name, value in self._host.params.items():

@@ -19,6 +19,8 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
   (an elliptic section's, :class:`mjcable.CableSpec`);
 * the rest Darboux vectors are zero (``rest_shape="straight"``) or the start curve's (``"start"``);
 * a clamp holds its particle and the frame of the segment beside it (the whole frame: tangent and the turn about it);
+  a body clamp holds the frame at its start orientation in the body, and the body feels the rod's torque, axial
+  twist included (two-way, implicit in the body's rotational inertia: :mod:`mjcable.solvers.cosserat_kernels`);
   a gripper's frame turns with :meth:`mjcable.Simulator.move_gripper`'s ``orientation``; a clamp's torque
   (:attr:`mjcable.Simulator.pin_torques`) is the torque its frame receives, −Σ R ∇_b Cᵀ λ / h², axial torque
   included;
@@ -50,16 +52,8 @@ def compliances(scene: Scene) -> tuple:
 
 
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
-    """The kernels' parameters of ``cosserat`` for ``scene`` (see the module docstring).
-
-    Raises:
-      ValueError: a body pin with a clamp (a frame held in a moving body is not implemented for ``cosserat``).
-    """
+    """The kernels' parameters of ``cosserat`` for ``scene`` (see the module docstring)."""
     del settings, h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
-    for k, pin in enumerate(scene.pins):
-        if pin.kind == "body" and pin.clamp:
-            raise ValueError(f"pins[{k}]: a clamped body pin (clamp=True, kind='body') is not supported by model "
-                             "'cosserat' yet; clamp it in the world or to a gripper, or use model 'xpbd'")
     return Rules(verlet_start=False, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0, k_stretch=1.0, k_bend=1.0,
                  k_clamp=1.0, bending="none", rod_compliance=compliances(scene),
                  rod_limp=max(*scene.cable.bending_stiffnesses, scene.cable.torsion_stiffness) <= _LIMP)

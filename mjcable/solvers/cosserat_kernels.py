@@ -22,7 +22,12 @@ Each constraint's update is [M16] Eq. 18 for a vector constraint: (J W Jᵀ + α
 A clamp at the rod's start or end holds a frame at its particle (``clamp_q``): one more bend–twist constraint, over
 half a segment, between that frame and its segment's (α = 2 α_bt, C = (4 / l₀) Im(q̄ q′); the clamp then holds the
 tangent at the particle, as the beam's clamped boundary, rather than half a segment further in). The clamp's frame
-collects R_c ∇_c Cᵀ Δλ in ``clamp_react`` (world), so that its torque on the rod is −clamp_react / h².
+collects R_c ∇_c Cᵀ Δλ in ``clamp_react`` (world), so that its torque on the rod is −clamp_react / h². A body
+clamp's frame is not held: it is predicted where the body's free step takes it and turns with the body's inverse
+inertia D_c = R_cᵀ J_r M⁻¹ J_rᵀ R_c (``clamp_wq``, from the world's rotational Jacobian J_r and mass matrix M:
+:func:`mjcable.solvers.host_kernels.host_before`), so that the constraint's block of J W Jᵀ gains J_c D_c J_cᵀ and the
+frame turns by δb_c = D_c J_cᵀ Δλ; the body then receives the torque +clamp_react / h² (implicit in the body's
+rotational inertia as a body pin's particle is in its inertia along the cable, :mod:`mjcable.backends.host`).
 
 The direct solve orders the rows per segment, [start clamp, ss₀, bt₀, ss₁, bt₁, …, end clamp] (three each), which makes J W Jᵀ a banded
 matrix of half-bandwidth 8, 3 × 3 blocks with two below the diagonal ([D18] §4: a chain is a tree whose elimination
@@ -31,7 +36,9 @@ without bend–twist rows, with :func:`mjcable.solvers.cosserat_direct_kernels.r
 iteration is Newton's step on the constraints (exact where they are linear). Rows with α = 0 get a relative compliance of ``_REGULARIZATION``.
 
 Frames are predicted with q ← q + (h/2) q ⊗ (0, ω) normalised (ω in the body frame, gyroscopic term
-−D (ω × I ω) explicit), and ω = (2/h) Im(q₀̄ ⊗ q) after the solve ([KS16] Eqs. 27–28, [M20] Eq. 8 and Algorithm 2).
+−D (ω × I ω) explicit), and ω = (2/h) Im(q₀̄ ⊗ q) after the solve ([KS16] Eqs. 27–28, [M20] Eq. 8 and Algorithm 2):
+:mod:`mjcable.solvers.cosserat_step_kernels`, which also holds the iteration and the direct solve's nonlinear
+safeguard.
 
 References (and [M16], [M20], [D18] in :mod:`mjcable.solvers.kernels`):
   [KS16] T. Kugelstadt, E. Schömer, "Position and Orientation Based Cosserat Rods", SCA 2016.
@@ -44,10 +51,9 @@ import math
 import numpy as np
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve, rod_direct_limp
-from mjcable.solvers.kernels_layout import ORDER_DIRECT
+from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve
 
-__all__ = ["frames_begin", "frames_end", "rod_iterate", "rod_gauss_seidel", "rod_direct"]
+__all__ = ["rod_gauss_seidel", "rod_direct"]
 
 # Relative compliance added to the diagonal of every row of the direct solve (an inextensible rod's α = 0 rows):
 # far below any physical compliance, it keeps J W Jᵀ positive definite where a held end makes rows redundant.
@@ -197,11 +203,22 @@ def _diag_bt(jac, wq, i, M):
 
 
 @_inline
-def _diag_end(jac, wq, e, M):
-    """M ← the clamp constraint's block of J W Jᵀ (only its segment's frame moves; without α̃)."""
+def _diag_end(S, e, M):
+    """M ← the clamp constraint's block of J W Jᵀ (without α̃): its segment's frame's, plus a body clamp's frame's
+    J_c D_c J_cᵀ (``clamp_wq``, a full 3 × 3: the body's inverse inertia in the clamp's frame; 0 for a held frame)."""
+    jac, wq = S.cs_jac, S.wq
     n = wq.shape[0]
     M[:, :] = 0.0
     _block(M, jac, 4 * n + e, wq, 0 if e == 0 else n - 1, 4 * n + e)
+    D = S.clamp_wq[S.end_clamp[e]]
+    if D[0, 0] + D[1, 1] + D[2, 2] > 0.0:  # a body clamp: its frame turns with the body's inverse inertia
+        k = 4 * n + 2 + e
+        for a in range(3):
+            for b in range(3):
+                acc = 0.0
+                for c in range(3):
+                    acc += jac[k, a, c] * (D[c, 0] * jac[k, b, 0] + D[c, 1] * jac[k, b, 1] + D[c, 2] * jac[k, b, 2])
+                M[a, b] += acc
 
 
 @_inline
@@ -274,8 +291,9 @@ def _apply_bt(S, i, l0, l1, l2, dq, now):
 
 @_inline
 def _apply_end(S, e, l0, l1, l2, dq, now):
-    """A clamp constraint's Δλ: its segment's frame turns; the clamp's frame (held) collects R_c J_cᵀ Δλ in
-    ``clamp_react`` (world), so that the clamp's torque on the rod is −clamp_react / h²."""
+    """A clamp constraint's Δλ: its segment's frame turns; the clamp's frame collects R_c J_cᵀ Δλ in
+    ``clamp_react`` (world), so that the clamp's torque on the rod is −clamp_react / h² (and the rod's on a body
+    clamp's body +clamp_react / h²); a body clamp's frame turns by D_c J_cᵀ Δλ."""
     n = S.q.shape[0]
     _frame_push(S, 0 if e == 0 else n - 1, S.cs_jac[4 * n + e], l0, l1, l2, dq, now)
     J = S.cs_jac[4 * n + 2 + e]
@@ -288,6 +306,10 @@ def _apply_end(S, e, l0, l1, l2, dq, now):
     rq[k, 0] += (1.0 - 2.0 * (y * y + z * z)) * gx + 2.0 * (x * y - w * z) * gy + 2.0 * (x * z + w * y) * gz
     rq[k, 1] += 2.0 * (x * y + w * z) * gx + (1.0 - 2.0 * (x * x + z * z)) * gy + 2.0 * (y * z - w * x) * gz
     rq[k, 2] += 2.0 * (x * z - w * y) * gx + 2.0 * (y * z + w * x) * gy + (1.0 - 2.0 * (x * x + y * y)) * gz
+    D = S.clamp_wq[k]
+    if D[0, 0] + D[1, 1] + D[2, 2] > 0.0:  # a body clamp's frame turns by D_c J_cᵀ Δλ (its only constraint: now)
+        _rotate_body(S.clamp_q, k, D[0, 0] * gx + D[0, 1] * gy + D[0, 2] * gz,
+                     D[1, 0] * gx + D[1, 1] * gy + D[1, 2] * gz, D[2, 0] * gx + D[2, 1] * gy + D[2, 2] * gz)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -313,7 +335,7 @@ def _gs_end(S, e, M, a0, a1, a2, inv_half):
     """One Gauss-Seidel update of the clamp constraint at the rod's start (e = 0) or end (e = 1)."""
     lam = S.lam_end
     c0, c1, c2 = _linearise_end(S, e, inv_half)
-    _diag_end(S.cs_jac, S.wq, e, M)
+    _diag_end(S, e, M)
     d0, d1, d2 = _block_update(M, a0, a1, a2, lam, e, c0, c1, c2)
     _apply_end(S, e, d0, d1, d2, S.cs_db, True)
 
@@ -400,7 +422,7 @@ def _assemble(S, h2, M):
             rhs[r] = -c0 - 2.0 * a_bt[0] * lam_end[e, 0]
             rhs[r + 1] = -c1 - 2.0 * a_bt[1] * lam_end[e, 1]
             rhs[r + 2] = -c2 - 2.0 * a_bt[2] * lam_end[e, 2]
-            _diag_end(jac, wq, e, M)
+            _diag_end(S, e, M)
             _put_diag(band, r, M, 2.0 * a_bt[0], 2.0 * a_bt[1], 2.0 * a_bt[2])
         else:
             band[r, 0] = band[r + 1, 0] = band[r + 2, 0] = 1.0
@@ -452,7 +474,10 @@ def _assemble(S, h2, M):
 @_jit
 def rod_direct(S, h2):
     """One direct solve of all the rod's constraints ([D18]): linearise and assemble (:func:`_assemble`), solve for
-    Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²)."""
+    Δλ with a block LDLᵀ, and apply Δx = W Jᵀ Δλ, δb = D Jᵀ Δλ together (``h2`` = h², s²). Returns a bound on the
+    rows' largest residual after it, |δb|² + 2 |δb| |Δx| / l₀ (the constraints' second-order terms, which the
+    linearisation leaves; |δb|² and |Δx|² summed over the frames and particles, which bounds the largest without a
+    branch; :mod:`mjcable.solvers.cosserat_step_kernels`)."""
     P = S.par[0]
     inv_l0 = math.sqrt(P.inv_l0sq)
     t = np.empty((8, 3, 3))
@@ -484,85 +509,14 @@ def rod_direct(S, h2):
             lam_end[e, 2] += rhs[r + 2]
             _apply_end(S, e, rhs[r], rhs[r + 1], rhs[r + 2], db, False)
     x = S.x
+    s2x = s2b = 0.0  # Σ of the squared particle moves (m²) and frame turns (rad²): bounds of the largest
     for p in range(x.shape[0]):
         x[p, 0] += dx[p, 0]
         x[p, 1] += dx[p, 1]
         x[p, 2] += dx[p, 2]
+        s2x += dx[p, 0] * dx[p, 0] + dx[p, 1] * dx[p, 1] + dx[p, 2] * dx[p, 2]
     for i in range(n):
         _rotate_body(S.q, i, db[i, 0], db[i, 1], db[i, 2])
+        s2b += db[i, 0] * db[i, 0] + db[i, 1] * db[i, 1] + db[i, 2] * db[i, 2]
     P.direct_solves += 1
-
-
-@_inline
-def rod_iterate(S):
-    """One iteration of the rod's constraints in the configured order (direct or Gauss-Seidel)."""
-    P = S.par[0]
-    if P.order == ORDER_DIRECT:
-        if P.rod_limp:
-            rod_direct_limp(S, P.h * P.h)
-        else:
-            rod_direct(S, P.h * P.h)
-    else:
-        rod_gauss_seidel(S, P.h * P.h)
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# The frames' substep: prediction and clamps, then angular velocities.
-
-
-@_inline
-def _slerp(a, b, t, out, k):
-    """out[k] ← the unit quaternion a fraction t of the way from a to b (shortest arc)."""
-    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-    sign = 1.0
-    if dot < 0.0:
-        dot, sign = -dot, -1.0
-    if dot > 0.9995:
-        s0, s1 = 1.0 - t, t
-    else:
-        theta = math.acos(dot)
-        s0, s1 = math.sin((1.0 - t) * theta) / math.sin(theta), math.sin(t * theta) / math.sin(theta)
-    norm = 0.0
-    for c in range(4):
-        out[k, c] = s0 * a[c] + sign * s1 * b[c]
-        norm += out[k, c] * out[k, c]
-    inv = 1.0 / math.sqrt(norm)
-    for c in range(4):
-        out[k, c] *= inv
-
-
-@_jit
-def frames_begin(S, sub, n_sub):
-    """Predict the frames (q₀ ← q; ω ← e^{−c h} ω − h D (ω × I ω); q ← q + (h/2) q ⊗ (0, ω), normalised), move the
-    clamps' frames to their targets (``clamp_q``, a slerp from ``clamp_qfrom`` to ``clamp_qto`` over the step's
-    substeps, like the pins' positions), and reset the rod's multipliers and the clamps' reactions."""
-    P = S.par[0]
-    h, damp = P.h, P.damp
-    q, q0, om, inertia, wq = S.q, S.q0, S.omega, S.inertia, S.wq
-    for i in range(q.shape[0]):
-        q0[i, 0], q0[i, 1], q0[i, 2], q0[i, 3] = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-        wx, wy, wz = om[i, 0], om[i, 1], om[i, 2]
-        lx, ly, lz = inertia[i, 0] * wx, inertia[i, 1] * wy, inertia[i, 2] * wz
-        om[i, 0] = damp * wx - h * wq[i, 0] * (wy * lz - wz * ly)
-        om[i, 1] = damp * wy - h * wq[i, 1] * (wz * lx - wx * lz)
-        om[i, 2] = damp * wz - h * wq[i, 2] * (wx * ly - wy * lx)
-        _rotate_body(q, i, h * om[i, 0], h * om[i, 1], h * om[i, 2])
-    frac = (sub + 1.0) / n_sub
-    for k in range(S.clamp_q.shape[0]):
-        _slerp(S.clamp_qfrom[k], S.clamp_qto[k], frac, S.clamp_q, k)
-        S.clamp_react[k, 0] = S.clamp_react[k, 1] = S.clamp_react[k, 2] = 0.0
-    S.lam_ss[:, :] = 0.0
-    S.lam_bt[:, :] = 0.0
-    S.lam_end[:, :] = 0.0
-
-
-@_jit
-def frames_end(S):
-    """The frames' angular velocities ω = (2/h) Im(q̄₀ ⊗ q) (body frame, sign of the shorter arc)."""
-    q, q0, om = S.q, S.q0, S.omega
-    k = 2.0 / S.par[0].h
-    for i in range(q.shape[0]):
-        rw, rx, ry, rz = _qmul(q0[i, 0], -q0[i, 1], -q0[i, 2], -q0[i, 3], q[i, 0], q[i, 1], q[i, 2], q[i, 3])
-        if rw < 0.0:
-            rx, ry, rz = -rx, -ry, -rz
-        om[i, 0], om[i, 1], om[i, 2] = k * rx, k * ry, k * rz
+    return s2b + 2.0 * math.sqrt(s2b * s2x) * inv_l0

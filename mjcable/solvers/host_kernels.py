@@ -32,12 +32,14 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
 from mjcable.solvers import impulse_kernels
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.cosserat_step_kernels import clamp_frames
 from mjcable.solvers.query_kernels import _call_model_data, refresh_moving
 
 __all__ = ["host_begin_step", "host_before", "host_after", "host_end_step", "pin_axis_jacobian", "dot", "turn_clamp",
@@ -80,25 +82,24 @@ def _call_state(typingctx, fn, model, data, state, sig):
 
 
 @intrinsic
-def _call_jac(typingctx, fn, model, data, jacp, point, body):
+def _call_jac(typingctx, fn, model, data, jacp, jacr, point, body):
     """``void fn(const mjModel*, const mjData*, mjtNum* jacp, mjtNum* jacr, const mjtNum point[3], int body)`` at
-    address ``fn`` (``mj_jac``) with ``jacr`` NULL: ``jacp`` (3, nv) and ``point`` (3,) C-contiguous float64."""
+    address ``fn`` (``mj_jac``): ``jacp``, ``jacr`` (3, nv) and ``point`` (3,) C-contiguous float64."""
     if not (all(isinstance(a, types.Integer) for a in (fn, model, data, body)) and _is_f64_c(jacp)
-            and _is_f64_c(point)):
+            and _is_f64_c(jacr) and _is_f64_c(point)):
         return None
 
     def codegen(context, builder, signature, args):
         i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
         address, m, d = (context.cast(builder, a, t, types.intp) for a, t in zip(args[:3], signature.args[:3]))
-        b = context.cast(builder, args[5], signature.args[5], types.int32)
+        b = context.cast(builder, args[6], signature.args[6], types.int32)
         function = ir.FunctionType(ir.VoidType(), [i8p, i8p, i8p, i8p, i8p, i32])
         builder.call(builder.inttoptr(address, function.as_pointer()),
-                     [builder.inttoptr(m, i8p), builder.inttoptr(d, i8p),
-                      _data_pointer(context, builder, signature.args[3], args[3]), ir.Constant(i8p, None),
-                      _data_pointer(context, builder, signature.args[4], args[4]), b])
+                     [builder.inttoptr(m, i8p), builder.inttoptr(d, i8p)]
+                     + [_data_pointer(context, builder, signature.args[k], args[k]) for k in (3, 4, 5)] + [b])
         return context.get_dummy_value()
 
-    return types.void(fn, model, data, jacp, point, body), codegen
+    return types.void(fn, model, data, jacp, jacr, point, body), codegen
 
 
 @intrinsic
@@ -155,6 +156,53 @@ def turn_clamp(xmat, body, local, clamp_dir, row):
                                     + xmat[body, 3 * i + 2] * local[2, k])
 
 
+@_jit
+def _clamp_inertias(S, P):
+    """Per body clamp k of a rod, its body's inverse rotational inertia in the world, W = J_r M⁻¹ J_rᵀ (``mj_jac``'s
+    rotational Jacobian, ``mj_solveM``), into ``clamp_wq[row]`` (:func:`_clamp_free_frames` turns it into the clamp's
+    frame)."""
+    jacr, solved = S.jacr, S.solved_r
+    for k in range(S.clamp_qlocal.shape[0]):
+        row, b = S.link_clamp[k, 0], S.link_clamp[k, 1]
+        _call_jac(P.fn_jac, P.model, P.data, S.jacp, jacr, S.xipos[b], b)
+        _call_solve(P.fn_solve_m, P.model, P.data, solved, jacr, 3)
+        W = S.clamp_wq[row]
+        for a in range(3):
+            for c in range(3):
+                W[a, c] = dot(jacr[a], solved[c])
+
+
+@_jit
+def _clamp_free_frames(S):
+    """After the trial step: each rod body clamp's frame where its body went, q_c = q_body ⊗ ``clamp_qlocal``, and its
+    inverse inertia turned into that frame, D_c = R_cᵀ W R_c (0 where W's trace is at most ``RIGID``: a body that
+    does not turn)."""
+    xquat, cq = S.xquat, S.clamp_q
+    R = np.empty((3, 3))
+    T = np.empty((3, 3))
+    for k in range(S.clamp_qlocal.shape[0]):
+        row, b = S.link_clamp[k, 0], S.link_clamp[k, 1]
+        a, l = xquat[b], S.clamp_qlocal[k]
+        cq[row, 0] = a[0] * l[0] - a[1] * l[1] - a[2] * l[2] - a[3] * l[3]
+        cq[row, 1] = a[0] * l[1] + a[1] * l[0] + a[2] * l[3] - a[3] * l[2]
+        cq[row, 2] = a[0] * l[2] - a[1] * l[3] + a[2] * l[0] + a[3] * l[1]
+        cq[row, 3] = a[0] * l[3] + a[1] * l[2] - a[2] * l[1] + a[3] * l[0]
+        W = S.clamp_wq[row]
+        if W[0, 0] + W[1, 1] + W[2, 2] <= RIGID:
+            W[:, :] = 0.0
+            continue
+        w, x, y, z = cq[row, 0], cq[row, 1], cq[row, 2], cq[row, 3]
+        R[0, 0], R[0, 1], R[0, 2] = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
+        R[1, 0], R[1, 1], R[1, 2] = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
+        R[2, 0], R[2, 1], R[2, 2] = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+        for i in range(3):  # T = W R
+            for c in range(3):
+                T[i, c] = W[i, 0] * R[0, c] + W[i, 1] * R[1, c] + W[i, 2] * R[2, c]
+        for i in range(3):  # D = Rᵀ T
+            for c in range(3):
+                W[i, c] = R[0, i] * T[0, c] + R[1, i] * T[1, c] + R[2, i] * T[2, c]
+
+
 # -- the host's pieces of a step (kernels.run_steps calls them around each solver substep) ----------------------
 
 
@@ -200,11 +248,13 @@ def host_before(S, sub, n):
                 p0[j, c] = site_xpos[s, c]
                 arm[j, c] = p0[j, c] - xipos[b, c]
         for j in range(npin):  # the body's inverse mass at its point along the cable
-            _call_jac(P.fn_jac, P.model, P.data, S.jacp, p0[j], link_body[j])
+            _call_jac(P.fn_jac, P.model, P.data, S.jacp, S.jacr, p0[j], link_body[j])
             pin_axis_jacobian(x, link_particle[j], link_neighbour[j], S.jacp, S.jn[0])
             _call_solve(P.fn_solve_m, P.model, P.data, S.solved, S.jn, 1)
             w_b = dot(S.jn[0], S.solved[0])
             free_w[j] = w_b if w_b > RIGID else 0.0
+        if S.clamp_qlocal.shape[0]:  # a rod's body clamps: the bodies' inverse rotational inertias
+            _clamp_inertias(S, P)
         _call_state(P.fn_get_state, P.model, P.data, S.saved, P.state_sig)
         _mj_step(P)
         _mj_kinematics(P)
@@ -214,11 +264,17 @@ def host_before(S, sub, n):
                 free[j, c] = site_xpos[s, c]
         for k in range(S.link_clamp.shape[0]):
             turn_clamp(S.xmat, S.link_clamp[k, 1], S.clamp_local[k], S.clamp_dir, S.link_clamp[k, 0])
+        if S.q.shape[0]:  # a rod's clamped frames: slerped (grippers, the world's), then the body clamps' free frames
+            clamp_frames(S, frac)
+            if S.clamp_qlocal.shape[0]:
+                _clamp_free_frames(S)
         _call_state(P.fn_set_state, P.model, P.data, S.saved, P.state_sig)
         for j in range(npin):
             for c in range(3):
                 target[link_pin[j], c] = free[j, c]
             w[link_particle[j]] = free_w[j]
+    elif S.q.shape[0]:
+        clamp_frames(S, frac)
     pin_to = S.pin_to
     for i in range(target.shape[0]):
         for c in range(3):
@@ -264,6 +320,12 @@ def host_after(S):
             applied[j, 3] = arm[j, 1] * f[j, 2] - arm[j, 2] * f[j, 1]
             applied[j, 4] = arm[j, 2] * f[j, 0] - arm[j, 0] * f[j, 2]
             applied[j, 5] = arm[j, 0] * f[j, 1] - arm[j, 1] * f[j, 0]
+        for k in range(S.clamp_qlocal.shape[0]):  # a rod's body clamp: the torque on its frame, +clamp_react / h²
+            row = S.link_clamp[k, 0]
+            for j in range(npin):
+                if link_pin[j] == S.clamp_pin[row]:
+                    for c in range(3):
+                        applied[j, 3 + c] += S.clamp_react[row, c] / (h * h)
         for j in range(npin):
             b = link_body[j]
             for c in range(6):

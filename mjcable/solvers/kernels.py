@@ -52,7 +52,7 @@ from mjcable.solvers.contact_kernels import (
     contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
     update_anchors,  # noqa: F401
 )
-from mjcable.solvers.cosserat_kernels import frames_begin, frames_end, rod_iterate
+from mjcable.solvers.cosserat_step_kernels import frames_begin, frames_end, rod_iterate
 from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # noqa: F401
 from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.impulse_kernels import collect_impulses

@@ -212,8 +212,10 @@ FIELDS = (
     # the user world's host: body pins (L), their clamps, mjData views, the warnings that stop a step, two-way rows
     ("link_pin", _I1, "(L,) pin"), ("link_particle", _I1, "(L,)"), ("link_neighbour", _I1, "(L,)"),
     ("link_body", _I1, "(L,)"), ("link_site", _I1, "(L,)"), ("link_clamp", _I2, "(K', 2) [clamp row, body]"),
-    ("clamp_local", _F3, "(K', 3, 2) clamp directions in the body"), ("site_xpos", _F2, "mjData.site_xpos"),
-    ("xipos", _F2, "mjData.xipos"), ("xmat", _F2, "mjData.xmat"), ("xfrc_applied", _F2, "mjData.xfrc_applied"),
+    ("clamp_local", _F3, "(K', 3, 2) clamp directions in the body"),
+    ("clamp_qlocal", _F2, "(K', 4) or (0, 4) a rod's clamped frames in their bodies (w, x, y, z)"),
+    ("site_xpos", _F2, "mjData.site_xpos"), ("xipos", _F2, "mjData.xipos"), ("xmat", _F2, "mjData.xmat"),
+    ("xquat", _F2, "mjData.xquat"), ("xfrc_applied", _F2, "mjData.xfrc_applied"),
     ("warning_number", types.Array(types.int32, 1, "A"), "mjData.warning.number (strided)"),
     ("bad", _I1, "(W,) warnings that stop"),
     ("wrench_rows", _I1, "(R',) obstacle rows on dynamic bodies"), ("wrench_bodies", _I1, "(R',) their bodies"),
@@ -222,7 +224,7 @@ FIELDS = (
     ("saved", _F1, "(nstate,)"), ("jacp", _F2, "(3, nv)"), ("jn", _F2, "(1, nv)"), ("solved", _F2, "(1, nv)"),
     ("start_from", _F2, "(P, 3)"), ("start_to", _F2, "(P, 3)"), ("target", _F2, "(P, 3)"), ("p0", _F2, "(L, 3)"),
     ("arm", _F2, "(L, 3)"), ("free", _F2, "(L, 3)"), ("free_w", _F1, "(L,)"), ("force", _F2, "(L, 3)"),
-    ("applied", _F2, "(L, 6)"),
+    ("applied", _F2, "(L, 6)"), ("jacr", _F2, "(3, nv)"), ("solved_r", _F2, "(3, nv)"),
     ("par", _a(numba.from_dtype(PARAMS), 1), "(1,) PARAMS"),
     # the direct order's rows with the geometric stiffness: the rows above and two transverse rows per stretch row
     # (R' rows, ROW_TRANSVERSE), and the stretch multipliers it is taken from
@@ -244,6 +246,8 @@ FIELDS = (
     ("clamp_seg", _I1, "(K,) the segment next to a clamp"), ("clamp_q", _F2, "(K, 4) the frame a clamp holds"),
     ("clamp_qfrom", _F2, "(K, 4) its target at the step's start"), ("clamp_qto", _F2, "(K, 4) at its end"),
     ("clamp_react", _F2, "(K, 3) Σ R ∇_c Cᵀ Δλ the clamp's frame collects (world)"),
+    ("clamp_wq", _F3, "(K, 3, 3) 1/(kg·m²) a clamp frame's inverse inertia in that frame (0: held; a body clamp's "
+     "body)"),
     ("end_clamp", _I1, "(2,) the clamp row at the rod's start and end (−1: none)"),
     ("cs_jac", _F3, "(4n + 4, 3, 3) Jacobian blocks"), ("cs_band", _F2, "(6n + 3, 9) the direct solve's band"),
     ("cs_rhs", _F1, "(6n + 3,) its right-hand side, then Δλ"), ("cs_db", _F2, "(n, 3) rad body rotations of a solve"),
@@ -342,16 +346,17 @@ def _geoms(S, pair_margin, segment_of_geom, shape_of_geom, geom_friction, moving
 
 
 @_jit
-def _links(S, link_pin, link_particle, link_neighbour, link_body, link_site, link_clamp, clamp_local):
+def _links(S, link_pin, link_particle, link_neighbour, link_body, link_site, link_clamp, clamp_local, clamp_qlocal):
     S.link_pin, S.link_particle, S.link_neighbour, S.link_body, S.link_site = (link_pin, link_particle, link_neighbour,
                                                                                link_body, link_site)
-    S.link_clamp, S.clamp_local = link_clamp, clamp_local
+    S.link_clamp, S.clamp_local, S.clamp_qlocal = link_clamp, clamp_local, clamp_qlocal
 
 
 @_jit
-def _world(S, site_xpos, xipos, xmat, xfrc_applied, warning_number, bad, wrench_rows, wrench_bodies, contact_wrench):
-    S.site_xpos, S.xipos, S.xmat, S.xfrc_applied, S.warning_number, S.bad = (site_xpos, xipos, xmat, xfrc_applied,
-                                                                            warning_number, bad)
+def _world(S, site_xpos, xipos, xmat, xquat, xfrc_applied, warning_number, bad, wrench_rows, wrench_bodies,
+           contact_wrench):
+    S.site_xpos, S.xipos, S.xmat, S.xquat, S.xfrc_applied, S.warning_number, S.bad = (
+        site_xpos, xipos, xmat, xquat, xfrc_applied, warning_number, bad)
     S.wrench_rows, S.wrench_bodies, S.contact_wrench = wrench_rows, wrench_bodies, contact_wrench
 
 
@@ -363,8 +368,8 @@ def _scratch(S, saved, jacp, jn, solved, start_from, start_to, target, p0, arm, 
 
 
 @_jit
-def _scratch_forces(S, force, applied):
-    S.force, S.applied = force, applied
+def _scratch_forces(S, force, applied, jacr, solved_r):
+    S.force, S.applied, S.jacr, S.solved_r = force, applied, jacr, solved_r
 
 
 @_jit
@@ -380,10 +385,10 @@ def _frames(S, q, q0, omega, inertia, wq, darboux0, lam_ss, lam_bt, lam_end):
 
 
 @_jit
-def _frame_scratch(S, clamp_seg, clamp_q, clamp_qfrom, clamp_qto, clamp_react, end_clamp, cs_jac, cs_band, cs_rhs,
-                   cs_db):
+def _frame_scratch(S, clamp_seg, clamp_q, clamp_qfrom, clamp_qto, clamp_react, clamp_wq, end_clamp, cs_jac,
+                   cs_band, cs_rhs, cs_db):
     S.clamp_seg, S.clamp_q, S.clamp_qfrom, S.clamp_qto = clamp_seg, clamp_q, clamp_qfrom, clamp_qto
-    S.clamp_react, S.end_clamp = clamp_react, end_clamp
+    S.clamp_react, S.clamp_wq, S.end_clamp = clamp_react, clamp_wq, end_clamp
     S.cs_jac, S.cs_band, S.cs_rhs, S.cs_db = cs_jac, cs_band, cs_rhs, cs_db
 
 
@@ -409,16 +414,17 @@ _PARTS = (
               "pose_pos", "pose_quat")),
     (_geoms, ("pair_margin", "segment_of_geom", "shape_of_geom", "geom_friction", "moving", "geom_xpos",
               "geom_xmat")),
-    (_links, ("link_pin", "link_particle", "link_neighbour", "link_body", "link_site", "link_clamp", "clamp_local")),
-    (_world, ("site_xpos", "xipos", "xmat", "xfrc_applied", "warning_number", "bad", "wrench_rows", "wrench_bodies",
-              "contact_wrench")),
+    (_links, ("link_pin", "link_particle", "link_neighbour", "link_body", "link_site", "link_clamp", "clamp_local",
+               "clamp_qlocal")),
+    (_world, ("site_xpos", "xipos", "xmat", "xquat", "xfrc_applied", "warning_number", "bad", "wrench_rows",
+              "wrench_bodies", "contact_wrench")),
     (_scratch, ("saved", "jacp", "jn", "solved", "start_from", "start_to", "target", "p0", "arm", "free", "free_w")),
-    (_scratch_forces, ("force", "applied")),
+    (_scratch_forces, ("force", "applied", "jacr", "solved_r")),
     (_geometric, ("gs_row_kind", "gs_row_idx", "gs_row_p", "gs_prow", "gs_pslot", "gs_band", "gs_grad", "gs_rhs",
                   "lam_gs", "gs_blocks")),
     (_frames, ("q", "q0", "omega", "inertia", "wq", "darboux0", "lam_ss", "lam_bt", "lam_end")),
-    (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "end_clamp", "cs_jac",
-                      "cs_band", "cs_rhs", "cs_db")),
+    (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "clamp_wq", "end_clamp",
+                      "cs_jac", "cs_band", "cs_rhs", "cs_db")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

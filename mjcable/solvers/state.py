@@ -316,5 +316,6 @@ def _rod_arrays(scene: Scene, clamps: list) -> dict:
     return dict(q=q, q0=q.copy(), omega=np.zeros((n, 3)), inertia=inertia, wq=1.0 / inertia, darboux0=omega0,
                 lam_ss=np.zeros((n, 3)), lam_bt=np.zeros((max(n - 1, 0), 3)), lam_end=np.zeros((2, 3)),
                 clamp_seg=seg, clamp_q=q[seg].copy(), clamp_qfrom=q[seg].copy(), clamp_qto=q[seg].copy(),
-                clamp_react=np.zeros((len(clamps), 3)), end_clamp=ends, cs_jac=np.zeros((4 * n + 4, 3, 3)),
+                clamp_react=np.zeros((len(clamps), 3)), clamp_wq=np.zeros((len(clamps), 3, 3)), end_clamp=ends,
+                cs_jac=np.zeros((4 * n + 4, 3, 3)),
                 cs_band=np.zeros((rows, 9)), cs_rhs=np.zeros(rows), cs_db=np.zeros((n, 3)))
