@@ -487,7 +487,10 @@ def _end_step(S):
     pin_from, pin_to = S.pin_from, S.pin_to
     for q in range(pin_to.shape[0]):
         pin_from[q, 0], pin_from[q, 1], pin_from[q, 2] = pin_to[q, 0], pin_to[q, 1], pin_to[q, 2]
-    S.clamp_qfrom[:, :] = S.clamp_qto  # (a Cosserat rod's clamped frames, like the pins)
+    qfrom, qto = S.clamp_qfrom, S.clamp_qto  # (a Cosserat rod's clamped frames, like the pins)
+    for q in range(qto.shape[0]):  # (explicit copies: a slice assignment costs more than a short loop)
+        for comp in range(4):
+            qfrom[q, comp] = qto[q, comp]
     if not P.host:
         P.time += P.dt
     check, value, where = step_check(S.x, S.v, S.prev, S.rest, S.pin_p, S.pin_to, S.pin_active, S.par)
