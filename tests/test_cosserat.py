@@ -1,7 +1,8 @@
 """The ``cosserat`` rod against rod theory, in a zero-gravity user world where the reference needs it: torsion (end
 torque C φ / L, uniform twist φ s / L), a clamped quarter-circle arc (end torque B / R, no twist), a curved rest shape
-kept and returned to, twist buckling (Greenhill, the natives too); and under gravity the bars the particle solvers pass (catenary, heavy cantilever). Plus what
-the other models say about twist, rest shapes, frames and turning grippers."""
+kept and returned to, twist buckling (Greenhill, the natives too); and under gravity the bars the particle solvers
+pass (catenary, heavy cantilever). Plus what the other models say about twist, rest shapes, frames and turning
+grippers."""
 
 import math
 
