@@ -37,7 +37,7 @@ from mjcable.scene import CableSpec, Pin, Scene
 
 __all__ = ["TwistScene", "twist_scene", "greenhill_scene", "greenhill_setup", "greenhill_drive", "greenhill_error",
            "greenhill_critical", "greenhill_turn", "curved_scene", "curved_drive", "curved_error", "GREENHILL_RAMP",
-           "GREENHILL_END", "CARRIAGE", "BUCKLED", "PULL_TIME", "SOCKET_FORCE", "twist_scene", "torsion_path",
+           "GREENHILL_END", "CARRIAGE", "BUCKLED", "PULL_TIME", "SOCKET_FORCE", "torsion_path",
            "torsion_turns", "arc_path", "arc_turns", "torsion_error", "arc_error", "arc_point", "turn",
            "require_frames", "LENGTH", "RADIUS", "YOUNG", "START", "TORSION_ANGLE", "TORSION_RAMP", "ARC_SWEEP",
            "ARC_ANGLE"]
