@@ -210,13 +210,14 @@ def test_bad_worlds_and_body_pins_are_rejected_with_the_reason(tmp_path):
     assert Scene(cable, (Pin(-1, "body", body="box"),), world=spec, keyframe="home").world.keyframe == "home"
 
 
+@pytest.mark.parametrize("young", [0.0, 1e6])  # a stiff joints chain makes its own start key: after the world's
 @pytest.mark.parametrize("model", model_params())
-def test_a_cable_starts_from_the_worlds_keyframe_and_keeps_its_keyframes(model):
+def test_a_cable_starts_from_the_worlds_keyframe_and_keeps_its_keyframes(model, young):
     xml = """<mujoco><worldbody><body name="arm" pos="0 0 1"><joint name="shoulder" axis="0 1 0"/>
       <geom name="link" type="capsule" fromto="0 0 0 0.2 0 0" size="0.01" mass="0.2"/></body></worldbody>
       <actuator><position name="shoulder" joint="shoulder" kp="50" kv="2"/></actuator>
       <keyframe><key name="raised" qpos="0.4" ctrl="0.4"/></keyframe></mujoco>"""
-    cable = CableSpec([[0.5, 0, 1.0], [0.5, 0, 0.6]], 10, 0.005, 0.05)
+    cable = CableSpec([[0.5, 0, 1.0], [0.5, 0, 0.6]], 10, 0.005, 0.05, young=young)
     sim = _sim(Scene(cable, (Pin(0),), world=mujoco.MjSpec.from_string(xml), keyframe="raised"), model)
     assert sim.mj_data.joint("shoulder").qpos[0] == pytest.approx(0.4)
     assert sim.mj_data.actuator("shoulder").ctrl[0] == pytest.approx(0.4)

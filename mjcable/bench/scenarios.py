@@ -42,7 +42,10 @@ And the contact families (scenes and measurements in :mod:`mjcable.bench.contact
 And the twist family (scenes, paths and errors in :mod:`mjcable.bench.twist`), for the models with material frames
 (the others are ``rejected``): ``torsion`` (a clamped rod's end turned by π: relative error of the end torque
 against G·J φ / L) and ``arc`` (its end carried onto a quarter circle with the arc's tangent: largest distance in
-metres from the arc).
+metres from the arc), ``greenhill`` (twisted until it buckles: relative error of the buckling torque against
+2.86 π B / L; not in ``--quick``: a 10 s ramp) and ``curved_rest`` (a quarter circle with ``rest_shape="start"``,
+pulled aside and let go: largest distance in metres from its start shape; models without curved rest shapes are
+``rejected``).
 
 Stress scenarios (:data:`STRESS_SCENARIOS`) vary one parameter each: ``stiffness`` (E·A on the drape), ``bending`` (E of a cantilever), ``segments``
 (n_segments on the table drop), ``speed`` (a gripper yanks the cable's end), ``load`` (a heavy mass at the end of
@@ -458,6 +461,19 @@ SCENARIOS: Dict[str, Scenario] = {
                  lambda n, p: twist.twist_scene(n), duration=1.0, quick_duration=1.0, error_kind="m",
                  evaluate=twist.arc_error, gripper_path=twist.arc_path, gripper_turns=twist.arc_turns,
                  drive_end=lambda p: twist.ARC_SWEEP, passive=False, setup=twist.require_frames),
+        Scenario("greenhill", "rod clamped at both ends in zero gravity with a 1 mm bow, one end sliding and twisted "
+                 "to 1.2 M_c over 10 s; relative error of the torque at which it buckles against 2.86 π B / L (models "
+                 "with material frames)",
+                 lambda n, p: twist.greenhill_scene(n), duration=0.0, quick_duration=0.0, error_kind="relative",
+                 evaluate=twist.greenhill_error, drive=twist.greenhill_drive,
+                 drive_end=lambda p: twist.GREENHILL_RAMP, passive=False, setup=twist.greenhill_setup,
+                 in_quick=False),
+        Scenario("curved_rest", "quarter circle with rest_shape='start' in zero gravity, clamped at one end, the "
+                 "other let go after a pull aside; largest distance from the start shape (models with curved rest "
+                 "shapes)",
+                 lambda n, p: twist.curved_scene(n), duration=4.0, quick_duration=4.0, error_kind="m",
+                 evaluate=twist.curved_error, drive=twist.curved_drive, drive_end=lambda p: twist.PULL_TIME,
+                 passive=False),
     )
 }
 

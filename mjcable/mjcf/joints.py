@@ -520,9 +520,13 @@ def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> muj
 
 
 def _add_start_key(spec: mujoco.MjSpec, scene: Scene, qpos: np.ndarray) -> None:
-    """Keyframe ``START_KEY`` with ``qpos`` and the grippers at their start positions."""
-    mocap = [scene.cable.particles[scene.pin_particle(k)] for k in scene.grippers]
-    key = spec.add_key(name=START_KEY, qpos=qpos)
+    """Keyframe ``START_KEY`` with the cable's ``qpos`` and the grippers at their start positions, after a user
+    world's own joints and mocap bodies (which come first in the model: their places here are filled with the
+    world's start by :func:`mjcable.mjcf.world.finish`)."""
+    start = scene.world.start_state() if scene.world is not None else None
+    n_qpos, n_mocap = (len(start["qpos"]), len(start["mpos"])) if start is not None else (0, 0)
+    mocap = [np.zeros(3)] * n_mocap + [scene.cable.particles[scene.pin_particle(k)] for k in scene.grippers]
+    key = spec.add_key(name=START_KEY, qpos=np.concatenate([np.zeros(n_qpos), qpos]))
     if mocap:
         key.mpos = np.concatenate(mocap)
         key.mquat = np.tile([1.0, 0.0, 0.0, 0.0], len(mocap))
