@@ -158,11 +158,12 @@ def turn_clamp(xmat, body, local, clamp_dir, row):
 
 @_jit
 def _clamp_inertias(S, P):
-    """Per body clamp k of a rod, its body's inverse rotational inertia in the world, W = J_r M⁻¹ J_rᵀ (``mj_jac``'s
-    rotational Jacobian, ``mj_solveM``), into ``clamp_wq[row]`` (:func:`_clamp_free_frames` turns it into the clamp's
-    frame)."""
+    """Per body clamp k, its body's inverse rotational inertia in the world, W = J_r M⁻¹ J_rᵀ (``mj_jac``'s
+    rotational Jacobian, ``mj_solveM``; 0 where its trace is at most ``RIGID``), into ``clamp_wq[row]`` (a rod's:
+    :func:`_clamp_free_frames` turns it into the clamp's frame), and the torque it collects, ``clamp_react[row]``,
+    zeroed."""
     jacr, solved = S.jacr, S.solved_r
-    for k in range(S.clamp_qlocal.shape[0]):
+    for k in range(S.link_clamp.shape[0]):
         row, b = S.link_clamp[k, 0], S.link_clamp[k, 1]
         _call_jac(P.fn_jac, P.model, P.data, S.jacp, jacr, S.xipos[b], b)
         _call_solve(P.fn_solve_m, P.model, P.data, solved, jacr, 3)
@@ -170,6 +171,9 @@ def _clamp_inertias(S, P):
         for a in range(3):
             for c in range(3):
                 W[a, c] = dot(jacr[a], solved[c])
+        if W[0, 0] + W[1, 1] + W[2, 2] <= RIGID:  # a body that does not turn
+            W[:, :] = 0.0
+        S.clamp_react[row, 0] = S.clamp_react[row, 1] = S.clamp_react[row, 2] = 0.0
 
 
 @_jit
@@ -253,7 +257,7 @@ def host_before(S, sub, n):
             _call_solve(P.fn_solve_m, P.model, P.data, S.solved, S.jn, 1)
             w_b = dot(S.jn[0], S.solved[0])
             free_w[j] = w_b if w_b > RIGID else 0.0
-        if S.clamp_qlocal.shape[0]:  # a rod's body clamps: the bodies' inverse rotational inertias
+        if S.link_clamp.shape[0]:  # body clamps: the bodies' inverse rotational inertias, the torques zeroed
             _clamp_inertias(S, P)
         _call_state(P.fn_get_state, P.model, P.data, S.saved, P.state_sig)
         _mj_step(P)
@@ -320,7 +324,7 @@ def host_after(S):
             applied[j, 3] = arm[j, 1] * f[j, 2] - arm[j, 2] * f[j, 1]
             applied[j, 4] = arm[j, 2] * f[j, 0] - arm[j, 0] * f[j, 2]
             applied[j, 5] = arm[j, 0] * f[j, 1] - arm[j, 1] * f[j, 0]
-        for k in range(S.clamp_qlocal.shape[0]):  # a rod's body clamp: the torque on its frame, +clamp_react / h²
+        for k in range(S.link_clamp.shape[0]):  # a body clamp: the torque the clamp gave its body, +clamp_react / h²
             row = S.link_clamp[k, 0]
             for j in range(npin):
                 if link_pin[j] == S.clamp_pin[row]:
