@@ -8,13 +8,15 @@ its trial position):
 
 1. pin targets x_to = from + ((k + 1) / n) (to − from) (grippers move linearly);
 2. per body pin: ``mj_jac`` at p0, n = (x_q − x_p) / max(|x_q − x_p|, 1e-12) (q the neighbour), jn = nᵀ J,
-   ``mj_solveM`` → w_b = jn · M⁻¹ jnᵀ (:func:`pin_axis_jacobian`, :func:`dot`); the trial step ``mj_getState``,
+   ``mj_solveM`` → w_b = jn · M⁻¹ jnᵀ (:func:`pin_axis_jacobian`, :func:`dot`), per body clamp its body's
+   W = J_r M⁻¹ J_rᵀ (:func:`_clamp_inertias`: the clamp turns with it in the solve); the trial step ``mj_getState``,
    ``mj_step``, ``mj_kinematics``, read b_free and turn the clamps' body-frame directions (:func:`turn_clamp`),
    ``mj_setState``; the particle predicted at b_free with inverse mass w_b (0 where w_b ≤ ``RIGID``);
 3. the solver's substep (one whole substep, the pins at this substep's targets);
 4. F = (x_p − b_free) / (w_b h h) + m_p g on each moving pin (−pin_force on a rigid one), added with its moment
-   (p0 − xipos) × F to ``xfrc_applied``; the contacts' −Σ j / h² on the world's dynamic bodies
-   (:func:`mjcable.solvers.impulse_kernels.body_wrenches`); ``mj_step``; both taken off ``xfrc_applied`` again;
+   (p0 − xipos) × F (and a body clamp's torque, ``clamp_react`` / h²) to ``xfrc_applied``; the contacts' −Σ j / h²
+   on the world's dynamic bodies (:func:`mjcable.solvers.impulse_kernels.body_wrenches`); ``mj_step``; both taken
+   off ``xfrc_applied`` again;
    ``mj_kinematics``; the moving obstacles' shapes from ``geom_xpos``/``geom_xmat``; x_p = p1, v_p = (p1 − p0) / h;
 5. MuJoCo's divergence warnings (``BADQACC``, ``BADQPOS``, ``BADQVEL``: their counts in ``mjData.warning``, read
    through the bindings' numpy view) stop the step at that substep, their counts zeroed.
