@@ -191,14 +191,16 @@ def body_clamp_turn(S, kc, m, g, ex, ey, ez):
 
 
 @_jit
-def clamp_sweep(S, out, scale, alpha_tilde, k):
+def clamp_sweep(S, out, scale, alpha_tilde, k, jacobi):
     """Clamps: the tangent at pinned particle p is held along the clamp axis by the finite-difference clamped
     boundary (w'(0) = 0 through a mirrored ghost particle): two scalar constraints C_m = scale · d_m · (x_q − x_p),
     d_m ⟂ axis, scale = 2 / l₀², carrying half a Voronoi cell of bending energy (α = 2 / (E·I·l₀)); α = 0 holds
     the tangent rigidly. A cantilever of n segments then bends as beam theory to O(1/n²), where fixing the
     neighbour particle instead would clamp half a segment further out (2 % stiff at n = 100). A body clamp's
     directions turn with its body (:func:`body_clamp_turn`: the body's inverse inertia W joins the row's
-    Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment."""
+    Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment; with ``jacobi`` (``out``
+    the summed corrections, which move the neighbour by ω / count of them) the body takes the same share of its
+    turn, so that its torque stays the moment of the neighbour's actual push (counts from ``_jacobi_counts``)."""
     x, w, react, lam = S.x, S.w, S.react, S.lam_c
     clamp_pq, clamp_pin, pin_active, clamp_dir = S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir
     for kc in range(clamp_pq.shape[0]):
@@ -222,7 +224,7 @@ def clamp_sweep(S, out, scale, alpha_tilde, k):
             lam[kc, m] += dlam
             g = scale * dlam
             if turns:
-                body_clamp_turn(S, kc, m, g, ex, ey, ez)
+                body_clamp_turn(S, kc, m, g * S.par[0].omega / S.count[q] if jacobi else g, ex, ey, ez)
             if wq > 0.0:
                 out[q, 0] += wq * g * dx
                 out[q, 1] += wq * g * dy
@@ -242,8 +244,8 @@ def clamp_sweep(S, out, scale, alpha_tilde, k):
 
 
 @_jit
-def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c):
-    """Bending and clamp sweeps, corrections into ``out``."""
+def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c, jacobi):
+    """Bending and clamp sweeps, corrections into ``out`` (summed for Jacobi's averaging with ``jacobi``)."""
     x, w, react = S.x, S.w, S.react
     P = S.par[0]
     bending, inv_l0sq = P.bending, P.inv_l0sq
@@ -252,4 +254,4 @@ def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c):
     elif bending == BEND_DISTANCE:
         stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False)
     if S.clamp_pq.shape[0]:
-        clamp_sweep(S, out, 2.0 * inv_l0sq, at_c, k_c)
+        clamp_sweep(S, out, 2.0 * inv_l0sq, at_c, k_c, jacobi)
