@@ -31,14 +31,20 @@ to carry the body's weight without stretch, as any heavy end mass does. w_b come
 divides by M + h·D (its implicit joint damping): where a joint's h·b is not small against the body's inertia, the
 body moves less than the coupling assumed.
 
-A clamp. ``xpbd``'s holds the tangent along a direction fixed in the body (turned with it in the trial step); its
-rows act on the pinned particle and its neighbour, and only the pinned particle's share reaches the body, so the
-body feels no moment. ``cosserat``'s (a rod with frames) holds the segment's whole frame in the body, both ways: the
+A clamp, both ways. The point chains' (``xpbd``, ``pbd``, ``jakobsen``) holds the tangent along directions d_m fixed
+in the body, C_m = (2 / l₀²) d_m · (x_q − x_p) (q the neighbour): the directions are predicted where the trial step
+turns the body (R d_local, ``clamp_local``) and turn in the solve with the body's inverse rotational inertia
+W = J_r M⁻¹ J_rᵀ (``clamp_wq``, in the world; the rows' J W Jᵀ gains (2 / l₀²)² (d_a × e)ᵀ W (d_b × e), e = x_q − x_p,
+in the direct system and in each Gauss-Seidel projection); the pinned particle's share reaches the body as its
+pull, and the directions' share, τ = Σ ∇_θ C Δλ = Σ (2 / l₀²) Δλ d_m × e (``clamp_react``), goes to the body as
+the torque τ / h², so the body feels the clamp's moment (the neighbour's constraint force applied at the
+neighbour). ``cosserat``'s (a rod with frames) holds the segment's whole frame in the body, both ways: the
 clamp's frame is predicted where the trial step turns the body (q_body ⊗ q_local, ``clamp_qlocal``) and turns in
 the rod's solve with the body's inverse rotational inertia W = J_r M⁻¹ J_rᵀ (``mj_jac``'s rotational Jacobian,
 ``mj_solveM``; :mod:`mjcable.solvers.cosserat_kernels`); the torque it received, τ = Σ R_c ∇_c Cᵀ Δλ / h², goes to
 the body with the pin's force (``xfrc_applied``), so the real step turns the body where the solve turned the frame
-(exactly for a hinge). As with w_b, W ignores the cross terms between the point's translation and the body's turn.
+(exactly for a hinge). As with w_b, W ignores the cross terms between the point's translation and the body's turn,
+and between two clamps or pins in one body.
 
 Two-way contacts. The cable's contacts with the world's geoms (:mod:`mjcable.solvers.contacts`) act on the
 world's dynamic bodies (not welded to the world nor to a mocap body: ``body_weldid`` ≠ 0 and not mocap), once per

@@ -40,7 +40,8 @@ _RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "count", "prev", "par", "r
           "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c", "pin_p", "pin_from", "pin_to", "pin_active",
           "pin_release", "pin_force", "pin_sum", "pin_count", "band", "grad", "rhs", "fric_n", "fric_mu",
           "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob", "q", "q0",
-          "omega", "lam_ss", "lam_bt", "lam_end", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react")
+          "omega", "lam_ss", "lam_bt", "lam_end", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react",
+          "clamp_wq")
 _NO_PATH = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
 
 
@@ -375,20 +376,20 @@ class ParticleBackend:
 
     def pin_torques(self) -> np.ndarray:
         """A clamp's torque about its particle p: (x_q − x_p) × f_q, f_q = Σₘ ∇_q Cₘ λₘ / h² the clamp's force on
-        the neighbour q (:func:`mjcable.solvers.kernels.clamp_sweep`: ∇_q Cₘ = (2 / l₀²) dₘ); for a rod with frames,
-        the torque that holds its frame, −Σ R ∇_b Cᵀ λ / h² (:mod:`mjcable.solvers.cosserat_kernels`), axial torque
-        included."""
+        the neighbour q (:func:`mjcable.solvers.kernels.clamp_sweep`: ∇_q Cₘ = (2 / l₀²) dₘ); for a body clamp
+        whose body turns, the negative of the torque its body received, −Σ ∇_θ C Δλ / h² (the same torque, taken
+        where each correction was made while the clamp turned); for a rod with frames, the torque that holds its
+        frame, −Σ R ∇_b Cᵀ λ / h² (:mod:`mjcable.solvers.cosserat_kernels`), axial torque included."""
         a = self.arrays
         out = np.zeros((len(self.scene.pins), 3))
-        if a.q.shape[0]:
-            for row, k in enumerate(a.clamp_pin):
-                if a.pin_active[k]:
-                    out[k] = -a.clamp_react[row] / self.h**2
-            return out
         scale = 2.0 / self.scene.cable.segment_length**2
         for kc, (p, q) in enumerate(a.clamp_pq):
             k = int(a.clamp_pin[kc])
-            if a.pin_active[k]:
+            if not a.pin_active[k]:
+                continue
+            if a.q.shape[0] or np.trace(a.clamp_wq[kc]) > 0.0:
+                out[k] = -a.clamp_react[kc] / self.h**2
+            else:
                 f = scale * (a.lam_c[kc] @ a.clamp_dir[kc]) / self.h**2
                 out[k] = np.cross(a.x[q] - a.x[p], f)
         return out

@@ -144,13 +144,65 @@ def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k):
                 react[i + 1, comp] += g
 
 
+@_inline
+def body_turn_dot(S, kc, m0, m1, ex, ey, ez):
+    """(d_m0 × e)ᵀ W (d_m1 × e) of clamp ``kc`` (e = x_q − x_p, W = ``clamp_wq[kc]`` its body's inverse rotational
+    inertia in the world): the body's turn in J W Jᵀ of the clamp's rows m0 and m1 (times scale²)."""
+    d, W = S.clamp_dir[kc], S.clamp_wq[kc]
+    ax, ay, az = d[m0, 1] * ez - d[m0, 2] * ey, d[m0, 2] * ex - d[m0, 0] * ez, d[m0, 0] * ey - d[m0, 1] * ex
+    bx, by, bz = d[m1, 1] * ez - d[m1, 2] * ey, d[m1, 2] * ex - d[m1, 0] * ez, d[m1, 0] * ey - d[m1, 1] * ex
+    return (ax * (W[0, 0] * bx + W[0, 1] * by + W[0, 2] * bz) + ay * (W[1, 0] * bx + W[1, 1] * by + W[1, 2] * bz)
+            + az * (W[2, 0] * bx + W[2, 1] * by + W[2, 2] * bz))
+
+
+@_inline
+def turns_body(S, kc):
+    """Whether clamp ``kc`` is held by a body that turns (its ``clamp_wq`` set by the host: a chain's body clamp)."""
+    W = S.clamp_wq[kc]
+    return W[0, 0] + W[1, 1] + W[2, 2] > 0.0
+
+
+@_inline
+def body_clamp_turn(S, kc, m, g, ex, ey, ez):
+    """A body clamp's share of its row m's correction g = scale Δλ: the body's generalized impulse
+    τ = ∇_θ C Δλ = g (d_m × e) (C = scale d_m · e with d_m = R d_local turning with the body, e = x_q − x_p) goes to
+    ``clamp_react[kc]`` (the host hands the body τ / h²), and both clamp directions turn by δθ = W τ (Rodrigues)."""
+    d, W, react = S.clamp_dir[kc], S.clamp_wq[kc], S.clamp_react[kc]
+    tx = g * (d[m, 1] * ez - d[m, 2] * ey)
+    ty = g * (d[m, 2] * ex - d[m, 0] * ez)
+    tz = g * (d[m, 0] * ey - d[m, 1] * ex)
+    react[0] += tx
+    react[1] += ty
+    react[2] += tz
+    rx = W[0, 0] * tx + W[0, 1] * ty + W[0, 2] * tz
+    ry = W[1, 0] * tx + W[1, 1] * ty + W[1, 2] * tz
+    rz = W[2, 0] * tx + W[2, 1] * ty + W[2, 2] * tz
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if angle == 0.0:
+        return
+    ux, uy, uz = rx / angle, ry / angle, rz / angle
+    c, s = math.cos(angle), math.sin(angle)
+    for a in range(2):
+        vx, vy, vz = d[a, 0], d[a, 1], d[a, 2]
+        along = (ux * vx + uy * vy + uz * vz) * (1.0 - c)
+        d[a, 0] = vx * c + (uy * vz - uz * vy) * s + ux * along
+        d[a, 1] = vy * c + (uz * vx - ux * vz) * s + uy * along
+        d[a, 2] = vz * c + (ux * vy - uy * vx) * s + uz * along
+
+
 @_jit
-def clamp_sweep(x, out, w, react, clamp_pq, clamp_pin, pin_active, clamp_dir, scale, alpha_tilde, lam, k):
+def clamp_sweep(S, out, scale, alpha_tilde, k, jacobi):
     """Clamps: the tangent at pinned particle p is held along the clamp axis by the finite-difference clamped
     boundary (w'(0) = 0 through a mirrored ghost particle): two scalar constraints C_m = scale · d_m · (x_q − x_p),
     d_m ⟂ axis, scale = 2 / l₀², carrying half a Voronoi cell of bending energy (α = 2 / (E·I·l₀)); α = 0 holds
     the tangent rigidly. A cantilever of n segments then bends as beam theory to O(1/n²), where fixing the
-    neighbour particle instead would clamp half a segment further out (2 % stiff at n = 100)."""
+    neighbour particle instead would clamp half a segment further out (2 % stiff at n = 100). A body clamp's
+    directions turn with its body (:func:`body_clamp_turn`: the body's inverse inertia W joins the row's
+    Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment; with ``jacobi`` (``out``
+    the summed corrections, which move the neighbour by ω / count of them) the body takes the same share of its
+    turn, so that its torque stays the moment of the neighbour's actual push (counts from ``_jacobi_counts``)."""
+    x, w, react, lam = S.x, S.w, S.react, S.lam_c
+    clamp_pq, clamp_pin, pin_active, clamp_dir = S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir
     for kc in range(clamp_pq.shape[0]):
         if not pin_active[clamp_pin[kc]]:
             continue
@@ -158,15 +210,21 @@ def clamp_sweep(x, out, w, react, clamp_pq, clamp_pin, pin_active, clamp_dir, sc
         q = clamp_pq[kc, 1]
         wp = w[p]
         wq = w[q]
-        wsum = (wp + wq) * scale * scale
+        turns = turns_body(S, kc)
         for m in range(2):
             dx = clamp_dir[kc, m, 0]
             dy = clamp_dir[kc, m, 1]
             dz = clamp_dir[kc, m, 2]
-            cval = scale * (dx * (x[q, 0] - x[p, 0]) + dy * (x[q, 1] - x[p, 1]) + dz * (x[q, 2] - x[p, 2]))
-            dlam = xpbd_multiplier(cval, wsum, alpha_tilde, lam[kc, m], k)
+            ex, ey, ez = x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2]
+            wsum = wp + wq
+            if turns:
+                wsum += body_turn_dot(S, kc, m, m, ex, ey, ez)
+            cval = scale * (dx * ex + dy * ey + dz * ez)
+            dlam = xpbd_multiplier(cval, wsum * scale * scale, alpha_tilde, lam[kc, m], k)
             lam[kc, m] += dlam
             g = scale * dlam
+            if turns:
+                body_clamp_turn(S, kc, m, g * S.par[0].omega / S.count[q] if jacobi else g, ex, ey, ez)
             if wq > 0.0:
                 out[q, 0] += wq * g * dx
                 out[q, 1] += wq * g * dy
@@ -186,8 +244,8 @@ def clamp_sweep(x, out, w, react, clamp_pq, clamp_pin, pin_active, clamp_dir, sc
 
 
 @_jit
-def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c):
-    """Bending and clamp sweeps, corrections into ``out``."""
+def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c, jacobi):
+    """Bending and clamp sweeps, corrections into ``out`` (summed for Jacobi's averaging with ``jacobi``)."""
     x, w, react = S.x, S.w, S.react
     P = S.par[0]
     bending, inv_l0sq = P.bending, P.inv_l0sq
@@ -196,5 +254,4 @@ def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c):
     elif bending == BEND_DISTANCE:
         stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False)
     if S.clamp_pq.shape[0]:
-        clamp_sweep(x, out, w, react, S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir, 2.0 * inv_l0sq,
-                    at_c, S.lam_c, k_c)
+        clamp_sweep(S, out, 2.0 * inv_l0sq, at_c, k_c, jacobi)

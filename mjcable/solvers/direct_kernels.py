@@ -9,9 +9,10 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.constraint_kernels import _bend_clamp_sweeps, stretch_sweep
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, BEND_DISTANCE, BEND_NONE, ROW_CURVATURE, ROW_DISTANCE,
-                                            ROW_STRETCH, ROW_TRANSVERSE)
+from mjcable.solvers.constraint_kernels import (_bend_clamp_sweeps, body_clamp_turn, body_turn_dot, stretch_sweep,
+                                                 turns_body)
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, BEND_DISTANCE, BEND_NONE, ROW_CLAMP, ROW_CURVATURE,
+                                            ROW_DISTANCE, ROW_STRETCH, ROW_TRANSVERSE)
 
 # [T15] M. Tournier, M. Nesme, B. Gilles, F. Faure, "Stable Constrained Dynamics", ACM TOG 34(4), 2015.
 
@@ -183,7 +184,7 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
 def _schur_assemble(S, rows):
     """J W Jᵀ + α̃ into ``rows``' band ([M16] Eq. 18 for all rows at once), after :func:`_direct_residuals`."""
     x, w = S.x, S.w
-    _, _, _, prow, pslot, band, grad, rhs = rows
+    row_kind, row_idx, row_p, prow, pslot, band, grad, rhs = rows
     nrow = rhs.shape[0]
     for p in range(x.shape[0]):  # J W Jᵀ, particle by particle
         wp = w[p]
@@ -203,6 +204,15 @@ def _schur_assemble(S, rows):
                     band[ra, ra - rb] += wp * dot
                 else:
                     band[rb, rb - ra] += wp * dot
+    scale2 = 4.0 * S.par[0].inv_l0sq * S.par[0].inv_l0sq
+    for r in range(nrow):  # a body clamp's rows: its body's turn, scale² (d_a × e)ᵀ W (d_b × e), m = 1 after m = 0
+        kc = row_idx[r] // 2
+        if row_kind[r] == ROW_CLAMP and turns_body(S, kc) and S.pin_active[S.clamp_pin[kc]]:
+            m, p, q = row_idx[r] % 2, row_p[r, 0], row_p[r, 1]
+            e0, e1, e2 = x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2]
+            band[r, 0] += scale2 * body_turn_dot(S, kc, m, m, e0, e1, e2)
+            if m == 1:
+                band[r, 1] += scale2 * body_turn_dot(S, kc, 1, 0, e0, e1, e2)
     for r in range(nrow):
         if band[r, 0] == 0.0:  # a hard row on held particles only (or a released clamp): Δλ = 0
             band[r, 0] = 1.0
@@ -219,6 +229,11 @@ def _direct_apply(S, rows, k_s, k_b, k_c):
     x, w, react = S.x, S.w, S.react
     row_kind, row_idx, row_p, _, _, _, grad, rhs = rows
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
+    for r in range(rhs.shape[0]):  # a body clamp's share, τ = ∇_θ C Δλ at the linearisation's x: its body turns
+        if row_kind[r] == ROW_CLAMP and rhs[r] != 0.0 and turns_body(S, row_idx[r] // 2):
+            p, q = row_p[r, 0], row_p[r, 1]
+            body_clamp_turn(S, row_idx[r] // 2, row_idx[r] % 2, 2.0 * S.par[0].inv_l0sq * k_c * rhs[r],
+                            x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2])
     for r in range(rhs.shape[0]):
         kind = row_kind[r]
         idx = row_idx[r]
@@ -579,4 +594,4 @@ def _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0,
         x = S.x
         stretch_sweep(x, x, S.w, S.react, S.rest, 1, alpha_s_t, S.lam_s, k_s, S.par[0].sqrt_approx)
         if S.par[0].direct_all and (S.par[0].bending != BEND_NONE or S.clamp_pq.shape[0] > 0):
-            _bend_clamp_sweeps(S, x, alpha_b_t, alpha_c_t, k_b, k_c)
+            _bend_clamp_sweeps(S, x, alpha_b_t, alpha_c_t, k_b, k_c, False)

@@ -8,13 +8,15 @@ its trial position):
 
 1. pin targets x_to = from + ((k + 1) / n) (to − from) (grippers move linearly);
 2. per body pin: ``mj_jac`` at p0, n = (x_q − x_p) / max(|x_q − x_p|, 1e-12) (q the neighbour), jn = nᵀ J,
-   ``mj_solveM`` → w_b = jn · M⁻¹ jnᵀ (:func:`pin_axis_jacobian`, :func:`dot`); the trial step ``mj_getState``,
+   ``mj_solveM`` → w_b = jn · M⁻¹ jnᵀ (:func:`pin_axis_jacobian`, :func:`dot`), per body clamp its body's
+   W = J_r M⁻¹ J_rᵀ (:func:`_clamp_inertias`: the clamp turns with it in the solve); the trial step ``mj_getState``,
    ``mj_step``, ``mj_kinematics``, read b_free and turn the clamps' body-frame directions (:func:`turn_clamp`),
    ``mj_setState``; the particle predicted at b_free with inverse mass w_b (0 where w_b ≤ ``RIGID``);
 3. the solver's substep (one whole substep, the pins at this substep's targets);
 4. F = (x_p − b_free) / (w_b h h) + m_p g on each moving pin (−pin_force on a rigid one), added with its moment
-   (p0 − xipos) × F to ``xfrc_applied``; the contacts' −Σ j / h² on the world's dynamic bodies
-   (:func:`mjcable.solvers.impulse_kernels.body_wrenches`); ``mj_step``; both taken off ``xfrc_applied`` again;
+   (p0 − xipos) × F (and a body clamp's torque, ``clamp_react`` / h²) to ``xfrc_applied``; the contacts' −Σ j / h²
+   on the world's dynamic bodies (:func:`mjcable.solvers.impulse_kernels.body_wrenches`); ``mj_step``; both taken
+   off ``xfrc_applied`` again;
    ``mj_kinematics``; the moving obstacles' shapes from ``geom_xpos``/``geom_xmat``; x_p = p1, v_p = (p1 − p0) / h;
 5. MuJoCo's divergence warnings (``BADQACC``, ``BADQPOS``, ``BADQVEL``: their counts in ``mjData.warning``, read
    through the bindings' numpy view) stop the step at that substep, their counts zeroed.
@@ -158,11 +160,12 @@ def turn_clamp(xmat, body, local, clamp_dir, row):
 
 @_jit
 def _clamp_inertias(S, P):
-    """Per body clamp k of a rod, its body's inverse rotational inertia in the world, W = J_r M⁻¹ J_rᵀ (``mj_jac``'s
-    rotational Jacobian, ``mj_solveM``), into ``clamp_wq[row]`` (:func:`_clamp_free_frames` turns it into the clamp's
-    frame)."""
+    """Per body clamp k, its body's inverse rotational inertia in the world, W = J_r M⁻¹ J_rᵀ (``mj_jac``'s
+    rotational Jacobian, ``mj_solveM``; 0 where its trace is at most ``RIGID``), into ``clamp_wq[row]`` (a rod's:
+    :func:`_clamp_free_frames` turns it into the clamp's frame), and the torque it collects, ``clamp_react[row]``,
+    zeroed."""
     jacr, solved = S.jacr, S.solved_r
-    for k in range(S.clamp_qlocal.shape[0]):
+    for k in range(S.link_clamp.shape[0]):
         row, b = S.link_clamp[k, 0], S.link_clamp[k, 1]
         _call_jac(P.fn_jac, P.model, P.data, S.jacp, jacr, S.xipos[b], b)
         _call_solve(P.fn_solve_m, P.model, P.data, solved, jacr, 3)
@@ -170,6 +173,9 @@ def _clamp_inertias(S, P):
         for a in range(3):
             for c in range(3):
                 W[a, c] = dot(jacr[a], solved[c])
+        if W[0, 0] + W[1, 1] + W[2, 2] <= RIGID:  # a body that does not turn
+            W[:, :] = 0.0
+        S.clamp_react[row, 0] = S.clamp_react[row, 1] = S.clamp_react[row, 2] = 0.0
 
 
 @_jit
@@ -253,7 +259,7 @@ def host_before(S, sub, n):
             _call_solve(P.fn_solve_m, P.model, P.data, S.solved, S.jn, 1)
             w_b = dot(S.jn[0], S.solved[0])
             free_w[j] = w_b if w_b > RIGID else 0.0
-        if S.clamp_qlocal.shape[0]:  # a rod's body clamps: the bodies' inverse rotational inertias
+        if S.link_clamp.shape[0]:  # body clamps: the bodies' inverse rotational inertias, the torques zeroed
             _clamp_inertias(S, P)
         _call_state(P.fn_get_state, P.model, P.data, S.saved, P.state_sig)
         _mj_step(P)
@@ -320,7 +326,7 @@ def host_after(S):
             applied[j, 3] = arm[j, 1] * f[j, 2] - arm[j, 2] * f[j, 1]
             applied[j, 4] = arm[j, 2] * f[j, 0] - arm[j, 0] * f[j, 2]
             applied[j, 5] = arm[j, 0] * f[j, 1] - arm[j, 1] * f[j, 0]
-        for k in range(S.clamp_qlocal.shape[0]):  # a rod's body clamp: the torque on its frame, +clamp_react / h²
+        for k in range(S.link_clamp.shape[0]):  # a body clamp: the torque the clamp gave its body, +clamp_react / h²
             row = S.link_clamp[k, 0]
             for j in range(npin):
                 if link_pin[j] == S.clamp_pin[row]:

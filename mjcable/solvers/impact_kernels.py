@@ -127,7 +127,7 @@ def resolve_impact(S):
         taken += 1
         held_chain_solve(S, scratch)
         if bend_or_clamp:
-            _bend_clamp_sweeps(S, S.x, at_b, at_c, P.k_b, P.k_c)
+            _bend_clamp_sweeps(S, S.x, at_b, at_c, P.k_b, P.k_c, False)
         moved = max(contact_sweep(S), friction_sweep(S, variable(False)))
         if P.n_self:
             self_contact_sweep(S)

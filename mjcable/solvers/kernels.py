@@ -205,14 +205,14 @@ def iterate(S, last):
     elif order == ORDER_DIRECT:
         direct_solve(S, at_s, at_b, at_c, k_s, k_b, k_c)
         if not P.direct_all and bend_or_clamp:  # PBD/Jakobsen: only the stretch chain is solved directly
-            _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
+            _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
     elif order == ORDER_JACOBI:
         dx = S.dx
         dx[:] = 0.0
+        _jacobi_counts(S)
         stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx)
         if bend_or_clamp:
-            _bend_clamp_sweeps(S, dx, at_b, at_c, k_b, k_c)
-        _jacobi_counts(S)
+            _bend_clamp_sweeps(S, dx, at_b, at_c, k_b, k_c, True)
         omega = P.omega
         cnt = S.count
         for p in range(x.shape[0]):
@@ -224,7 +224,7 @@ def iterate(S, last):
     else:
         stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx)
         if bend_or_clamp:  # a call passing S: skipped when there is nothing to do
-            _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c)
+            _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
     n_con, n_self = P.n_con, P.n_self
     impact = finished = False
     if n_con:

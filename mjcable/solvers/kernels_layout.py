@@ -245,9 +245,10 @@ FIELDS = (
     ("lam_end", _F2, "(2, 3) multipliers of the clamps' constraints at the rod's start and end"),
     ("clamp_seg", _I1, "(K,) the segment next to a clamp"), ("clamp_q", _F2, "(K, 4) the frame a clamp holds"),
     ("clamp_qfrom", _F2, "(K, 4) its target at the step's start"), ("clamp_qto", _F2, "(K, 4) at its end"),
-    ("clamp_react", _F2, "(K, 3) Σ R ∇_c Cᵀ Δλ the clamp's frame collects (world)"),
+    ("clamp_react", _F2, "(K, 3) Σ R ∇_c Cᵀ Δλ the clamp's frame collects (world; a chain's body clamp: "
+     "Σ ∇_θ C Δλ)"),
     ("clamp_wq", _F3, "(K, 3, 3) 1/(kg·m²) a clamp frame's inverse inertia in that frame (0: held; a body clamp's "
-     "body)"),
+     "body; a chain's body clamp: its body's, in the world)"),
     ("end_clamp", _I1, "(2,) the clamp row at the rod's start and end (−1: none)"),
     ("cs_jac", _F3, "(4n + 4, 3, 3) Jacobian blocks"), ("cs_band", _F2, "(6n + 3, 9) the direct solve's band"),
     ("cs_rhs", _F1, "(6n + 3,) its right-hand side, then Δλ"), ("cs_db", _F2, "(n, 3) rad body rotations of a solve"),
