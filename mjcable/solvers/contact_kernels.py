@@ -230,14 +230,24 @@ def reset_friction(S):
 
 
 @_inline
+def is_flat(face):
+    """Whether ``con_face`` marks a contact measured as a flat face's plane (``BOX_FACE_FLAT`` or ``_SOLE``)."""
+    return face == BOX_FACE_FLAT or face == BOX_FACE_SOLE
+
+
+@_inline
+def _is_round(typ):  # a sphere, cylinder or capsule (MuJoCo geom type)
+    return typ == GEOM_SPHERE or typ == GEOM_CYLINDER or typ == GEOM_CAPSULE
+
+
+@_inline
 def _round_fraction(shapes, row, x, i, s):
     """The fraction of segment (i, i+1) of ``x`` closest to round obstacle ``row`` of ``shapes`` (a sphere's centre,
     a cylinder's or capsule's axis line), in [0, 1]; ``s`` (the query's fraction) for every other shape and for a
-    segment parallel to the axis. A chord lying on a round shape touches it at its closest point, which moves along
-    the chord as the chord turns: measured at the query's fraction, the chord's middle could sink between queries
-    (tens of µm on a peg), and the next query's depth came out at the depenetration speed as a bounce."""
+    segment parallel to the axis: a chord on a round shape touches it at that point, which moves as the chord turns
+    (``docs/measurements.md``, the dropped rope)."""
     typ = shapes.type[row]
-    if typ != GEOM_SPHERE and typ != GEOM_CYLINDER and typ != GEOM_CAPSULE:
+    if not _is_round(typ):
         return s
     pos, rot = shapes.pos, shapes.rot
     dx, dy, dz = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
@@ -255,13 +265,12 @@ def _round_fraction(shapes, row, x, i, s):
 
 @_jit
 def _round_fractions(S):
-    """The state's contacts with a round obstacle (sphere, cylinder, capsule) at a segment's inside move to the
-    segment's closest point (:func:`_round_fraction`), before each sweep."""
+    """Contacts inside a segment on a round obstacle move to its closest point (:func:`_round_fraction`)."""
     shapes = shapes_of(S)
     seg, con_s, con_shape, con_face, x = S.con_seg, S.con_s, S.con_shape, S.con_face, S.x
     for c in range(S.par[0].n_con):
         k, s = con_shape[c], con_s[c]
-        if k >= 0 and con_face[c] != BOX_FACE_FLAT and con_face[c] != BOX_FACE_SOLE and 0.0 < s < 1.0:
+        if k >= 0 and not is_flat(con_face[c]) and 0.0 < s < 1.0:
             con_s[c] = _round_fraction(shapes, k, x, seg[c], s)
 
 
@@ -271,7 +280,7 @@ def contact_sweep(S):
     projection's function made its loop 10 % slower where no contact is round)."""
     types = S.shape_type
     for r in range(types.shape[0]):
-        if types[r] == GEOM_SPHERE or types[r] == GEOM_CYLINDER or types[r] == GEOM_CAPSULE:
+        if _is_round(types[r]):
             _round_fractions(S)
             break
     return _project_contacts(S)
@@ -332,7 +341,7 @@ def _project_contacts(S):
             oy = a * x0[i, 1] + b * x0[j, 1]
             oz = a * x0[i, 2] + b * x0[j, 2]
         face = con_face[c]
-        flat = face == BOX_FACE_FLAT or face == BOX_FACE_SOLE  # a static plane or face: the half-space below
+        flat = is_flat(face)  # a static plane or face: the half-space below
         if k >= 0 and not flat:  # measured against the shape
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
                                               con_normal[c, 2], con_offset[c], radius, con_face[c])

@@ -205,8 +205,8 @@ def _schur_assemble(S, rows):
                 else:
                     band[rb, rb - ra] += wp * dot
     scale2 = 4.0 * S.par[0].inv_l0sq * S.par[0].inv_l0sq
-    for r in range(nrow):  # a body clamp's rows: its body's turn, scale² (d_a × e)ᵀ W (d_b × e), m = 1 after m = 0
-        kc = row_idx[r] // 2
+    for r in range(nrow if S.clamp_pq.shape[0] else 0):  # (a chain without clamps has no clamp rows)
+        kc = row_idx[r] // 2  # a body clamp's rows: its body's turn, scale² (d_a × e)ᵀ W (d_b × e), m = 1 after 0
         if row_kind[r] == ROW_CLAMP and turns_body(S, kc) and S.pin_active[S.clamp_pin[kc]]:
             m, p, q = row_idx[r] % 2, row_p[r, 0], row_p[r, 1]
             e0, e1, e2 = x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2]
@@ -229,7 +229,8 @@ def _direct_apply(S, rows, k_s, k_b, k_c):
     x, w, react = S.x, S.w, S.react
     row_kind, row_idx, row_p, _, _, _, grad, rhs = rows
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
-    for r in range(rhs.shape[0]):  # a body clamp's share, τ = ∇_θ C Δλ at the linearisation's x: its body turns
+    for r in range(rhs.shape[0] if S.clamp_pq.shape[0] else 0):  # (a chain without clamps has no clamp rows)
+        # a body clamp's share, τ = ∇_θ C Δλ at the linearisation's x: its body turns
         if row_kind[r] == ROW_CLAMP and rhs[r] != 0.0 and turns_body(S, row_idx[r] // 2):
             p, q = row_p[r, 0], row_p[r, 1]
             body_clamp_turn(S, row_idx[r] // 2, row_idx[r] % 2, 2.0 * S.par[0].inv_l0sq * k_c * rhs[r],

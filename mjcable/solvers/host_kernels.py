@@ -41,6 +41,7 @@ from numba.extending import intrinsic
 
 from mjcable.solvers import impulse_kernels
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.cosserat_kernels import _qmul, _rotation
 from mjcable.solvers.cosserat_step_kernels import clamp_frames
 from mjcable.solvers.query_kernels import _call_model_data, refresh_moving
 
@@ -189,18 +190,12 @@ def _clamp_free_frames(S):
     for k in range(S.clamp_qlocal.shape[0]):
         row, b = S.link_clamp[k, 0], S.link_clamp[k, 1]
         a, l = xquat[b], S.clamp_qlocal[k]
-        cq[row, 0] = a[0] * l[0] - a[1] * l[1] - a[2] * l[2] - a[3] * l[3]
-        cq[row, 1] = a[0] * l[1] + a[1] * l[0] + a[2] * l[3] - a[3] * l[2]
-        cq[row, 2] = a[0] * l[2] - a[1] * l[3] + a[2] * l[0] + a[3] * l[1]
-        cq[row, 3] = a[0] * l[3] + a[1] * l[2] - a[2] * l[1] + a[3] * l[0]
+        cq[row, 0], cq[row, 1], cq[row, 2], cq[row, 3] = _qmul(a[0], a[1], a[2], a[3], l[0], l[1], l[2], l[3])
         W = S.clamp_wq[row]
         if W[0, 0] + W[1, 1] + W[2, 2] <= RIGID:
             W[:, :] = 0.0
             continue
-        w, x, y, z = cq[row, 0], cq[row, 1], cq[row, 2], cq[row, 3]
-        R[0, 0], R[0, 1], R[0, 2] = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
-        R[1, 0], R[1, 1], R[1, 2] = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
-        R[2, 0], R[2, 1], R[2, 2] = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+        _rotation(cq, row, R)
         for i in range(3):  # T = W R
             for c in range(3):
                 T[i, c] = W[i, 0] * R[0, c] + W[i, 1] * R[1, c] + W[i, 2] * R[2, c]
