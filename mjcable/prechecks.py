@@ -22,7 +22,10 @@ fix (a ``ValueError`` where no result could be right):
 * **the particle solvers' iterations** (:mod:`mjcable.solvers.convergence`): unconverged Gauss-Seidel or Jacobi
   sweeps leave a rod a fraction f of its stated bending stiffness on its lowest mode (warned where its sag 1/f is off
   by more than :data:`STIFFNESS_TOLERANCE`) and stretch an inextensible chain under its weight (warned beyond
-  :data:`STRAIN_WARNING`); the warning gives the substeps that bring it within, or the direct order. A cable that
+  :data:`STRAIN_WARNING`); the warning gives the substeps or iterations that bring it within, or the direct order.
+  The iterations' default, ``None``, takes the fewest (up to
+  :data:`~mjcable.solvers.settings.MAX_AUTO_ITERATIONS`) that keep the strain within (:func:`resolve_iterations`,
+  which the Simulator calls before :func:`check`), so that only iterations the user chose warn. A cable that
   no pin holds but that starts hanging from an obstacle (most of its segments steeper than :data:`HANGING_SLOPE`,
   and obstacles or a user world to hang from) is estimated held at its highest particle: a rope over a peg that one
   Gauss-Seidel sweep per 2 ms leaves 2–4 % long stretches and swings on the peg, and its friction there holds it
@@ -46,13 +49,14 @@ from mjcable import _validate, catalog
 from mjcable.errors import PhysicsWarning
 from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import convergence
+from mjcable.solvers.convergence import HANGING_SLOPE, STRAIN_WARNING, resolve_iterations
+from mjcable.solvers.settings import MAX_AUTO_ITERATIONS
 
-__all__ = ["check", "STRAIN_WARNING", "STIFFNESS_TOLERANCE", "MAX_SUBSTEP_FACTOR", "HANGING_SLOPE"]
+__all__ = ["check", "resolve_iterations", "STRAIN_WARNING", "STIFFNESS_TOLERANCE", "MAX_SUBSTEP_FACTOR",
+           "HANGING_SLOPE"]
 
-STRAIN_WARNING = 0.05  # an inextensible cable's expected static strain under its weight beyond which a Simulator warns
 STIFFNESS_TOLERANCE = 0.1  # a rod whose expected sag is off by more than this fraction warns
 MAX_SUBSTEP_FACTOR = 256  # the most substeps (times the given ones) a fix suggests; beyond, only another order
-HANGING_SLOPE = 45.0  # degrees from the horizontal: an unpinned cable most of whose start segments are steeper hangs
 _UNITS = {"stretch_stiffness": "N", "young": "Pa", "damping": "1/s", "radius": "m", "mass": "kg"}
 _STACK = 4  # warnings point at the Simulator's caller: warn ← a check ← check ← Simulator.__init__ ← caller
 
@@ -131,7 +135,7 @@ def _direct_bending_models(scene: Scene, h: float) -> list:
     found = []
     for name in catalog.names("particle"):
         try:
-            settings = catalog.make_settings(name, order="direct")
+            settings = catalog.make_settings(name, order="direct", iterations=1)
             if catalog.get(name).rules(scene, settings, h).direct_bending:
                 found.append(name)
         except ValueError:
@@ -151,42 +155,26 @@ def _more_substeps(settings, measure, good) -> Optional[int]:
     return None
 
 
-def _hanging_support(scene: Scene) -> Optional[int]:
-    """The particle an unpinned cable hangs from, where it starts hanging from an obstacle: its highest particle, if
-    no pin holds it, the scene has obstacles or a user world, and most of its start segments are steeper than
-    :data:`HANGING_SLOPE` (a rope over a peg, a cable draped over a bar); else ``None``."""
-    if scene.pins or not (scene.obstacles or scene.world is not None):
-        return None
-    x = np.asarray(scene.cable.particles, dtype=np.float64)
-    d = np.diff(x, axis=0)
-    up = -np.asarray(scene.gravity, dtype=np.float64)
-    norm = float(np.linalg.norm(up))
-    if norm == 0.0:
-        return None
-    rise = np.abs(d @ (up / norm)) / np.maximum(np.linalg.norm(d, axis=1), 1e-300)
-    if np.mean(rise > math.sin(math.radians(HANGING_SLOPE))) <= 0.5:
-        return None
-    return int(np.argmax(x @ up))
-
-
 def _iterations(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
     """The stiffness a particle solver's iterations leave the cable (:mod:`mjcable.solvers.convergence`)."""
     hung = convergence.hung_masses(scene)
-    support = _hanging_support(scene)
+    support = convergence.hanging_support(scene)
 
     def rules(s):
         return entry.rules(scene, s, dt / s.substeps)
 
-    def strain(s):
-        return convergence.stretch_strain(scene, rules(s), s, dt / s.substeps, hung=hung, support=support)
-
+    strain = convergence.strain_estimate(scene, entry, dt)
     how = f"order={settings.order!r}, {settings.iterations} iteration(s) × {settings.substeps} substeps at dt={dt:g} s"
     expected = strain(settings)
-    if expected is not None and expected > STRAIN_WARNING:
-        need = _more_substeps(settings, strain, lambda e: e is not None and e <= STRAIN_WARNING)
+    if not convergence.strain_within(expected):
+        need = _more_substeps(settings, strain, convergence.strain_within)
         fixes = [] if settings.order == "direct" else ["order='direct' (the stretch chain solved at once)"]
         if need is not None:
             fixes.append(f"substeps >= {need}")
+        more = next((k for k in range(settings.iterations + 1, MAX_AUTO_ITERATIONS + 1)
+                     if convergence.strain_within(strain(dataclasses.replace(settings, iterations=k)))), None)
+        if more is not None:
+            fixes.append(f"iterations >= {more} (iterations=None takes it)")
         where = "" if support is None else (
             f"; it hangs from an obstacle (estimated held at particle {support}, its highest), so it stretches and "
             f"swings on its support, and friction there holds it only well below Coulomb's threshold")

@@ -27,7 +27,7 @@ from mjcable import monitor
 from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Energy, RunResult
 from mjcable.mjcf import proxy, world
 from mjcable.scene import Scene
-from mjcable.solvers import capi, kernels, kernels_layout as layout, query_kernels
+from mjcable.solvers import capi, convergence, kernels, kernels_layout as layout, query_kernels
 from mjcable.solvers.contacts import ObstacleContacts
 from mjcable.solvers.energy import elastic_energy, rod_energy
 from mjcable.solvers.settings import ParticleSettings
@@ -70,7 +70,7 @@ class ParticleBackend:
     """
 
     def __init__(self, scene: Scene, entry, dt: float, settings: ParticleSettings):
-        self.settings = s = settings
+        self.settings = s = convergence.resolve_iterations(scene, entry, settings, dt)  # iterations=None
         self.scene, self.name, self.dt = scene, entry.name, dt
         self.h = dt / s.substeps
         self.rules = entry.rules(scene, s, self.h)

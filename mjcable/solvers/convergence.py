@@ -30,17 +30,25 @@ left out: the numbers are what the iterations do to the rod's own stiffness, an 
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Optional
 
 import numpy as np
 from scipy import linalg
 
 from mjcable.scene import Scene
-from mjcable.solvers.settings import ParticleSettings
+from mjcable.solvers.settings import MAX_AUTO_ITERATIONS, ParticleSettings
 from mjcable.solvers.state import Rules
 
+# an inextensible cable's expected static strain under its loads beyond which a Simulator warns
+# (mjcable.prechecks), and which iterations=None keeps it within: a rope dropped onto a peg with one Jakobsen
+# substep of 2 ms slid at 0.85 of the capstan law at 0.035 and held at 0.023 (docs/measurements.md, 2026-11-27)
+STRAIN_WARNING = 0.025
+HANGING_SLOPE = 45.0  # degrees from the horizontal: an unpinned cable most of whose start segments are steeper hangs
+
 __all__ = ["Rows", "sweep_map", "static_response", "bending_fraction", "stretch_strain", "static_strain",
-           "hung_masses", "MAX_SEGMENTS"]
+           "hung_masses", "hanging_support", "strain_estimate", "strain_within", "resolve_iterations", "MAX_SEGMENTS",
+           "STRAIN_WARNING", "HANGING_SLOPE"]
 
 MAX_SEGMENTS = 400  # the longest chain analysed (a dense map of about 3n × 3n entries, raised by squaring)
 _RIGID = 1e-9  # a lowest eigenvalue of K below this fraction of its largest diagonal term is a rigid motion
@@ -323,3 +331,54 @@ def static_strain(scene: Scene, compliance: float, *, hung: Optional[np.ndarray]
     if free.all():
         return None
     return float(np.max(np.abs(_stated_strains(scene, compliance, mass, free))))
+
+
+def hanging_support(scene: Scene) -> Optional[int]:
+    """The particle an unpinned cable hangs from, where it starts hanging from an obstacle: its highest particle, if
+    no pin holds it, the scene has obstacles or a user world, and most of its start segments are steeper than
+    :data:`HANGING_SLOPE` (a rope over a peg, a cable draped over a bar); else ``None``."""
+    if scene.pins or not (scene.obstacles or scene.world is not None):
+        return None
+    x = np.asarray(scene.cable.particles, dtype=np.float64)
+    d = np.diff(x, axis=0)
+    up = -np.asarray(scene.gravity, dtype=np.float64)
+    norm = float(np.linalg.norm(up))
+    if norm == 0.0:
+        return None
+    rise = np.abs(d @ (up / norm)) / np.maximum(np.linalg.norm(d, axis=1), 1e-300)
+    if np.mean(rise > math.sin(math.radians(HANGING_SLOPE))) <= 0.5:
+        return None
+    return int(np.argmax(x @ up))
+
+
+def strain_estimate(scene: Scene, entry, dt: float):
+    """``strain(settings)``: the static strain that the particle solver ``entry``'s iterations at ``settings`` leave
+    an inextensible cable of ``scene`` under its loads (:func:`stretch_strain`; ``None``: none to estimate)."""
+    hung = hung_masses(scene)
+    support = hanging_support(scene)
+
+    def strain(s):
+        h = dt / s.substeps
+        return stretch_strain(scene, entry.rules(scene, s, h), s, h, hung=hung, support=support)
+
+    return strain
+
+
+def strain_within(expected: Optional[float]) -> bool:
+    """Whether an estimate of :func:`strain_estimate` is within :data:`STRAIN_WARNING` (``None``: nothing to say)."""
+    return expected is None or expected <= STRAIN_WARNING
+
+
+def resolve_iterations(scene: Scene, entry, settings, dt: float):
+    """``settings`` with ``iterations=None`` (a particle solver's default) replaced by the number the Simulator
+    takes: the fewest, up to :data:`mjcable.solvers.settings.MAX_AUTO_ITERATIONS`, whose expected static strain of
+    the cable under the scene's loads is within :data:`STRAIN_WARNING` (where none is, the most;
+    :func:`mjcable.prechecks.check` then warns with the fixes). Other settings are returned as they are."""
+    if entry.family != "particle" or settings.iterations is not None:
+        return settings
+    strain = strain_estimate(scene, entry, dt)
+    for k in range(1, MAX_AUTO_ITERATIONS + 1):
+        trial = dataclasses.replace(settings, iterations=k)
+        if strain_within(strain(trial)):
+            return trial
+    return trial

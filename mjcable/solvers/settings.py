@@ -30,6 +30,7 @@ __all__ = [
     "DEFAULT_CONTACT_MARGIN",
     "DEFAULT_QUERY_SLACK",
     "DEFAULT_SUBSTEPS",
+    "MAX_AUTO_ITERATIONS",
     "bending_kind",
 ]
 
@@ -43,6 +44,9 @@ DEFAULT_CONTACT_MARGIN = 0.005  # m, added to the distance the cable can travel 
 # the segment and normal): 0.2 mm already made the capstan's rope creep at 0.85 of its slip load (pbd, 3.5 mm/s),
 # 1-2.5 mm made it slide at 0.6 (tests/test_particle_contacts.py).
 DEFAULT_QUERY_SLACK = 1e-5
+# the most constraint iterations per substep that iterations=None takes (beyond them, substeps or the direct order
+# are the cheaper fix, and the Simulator warns with them: mjcable.prechecks)
+MAX_AUTO_ITERATIONS = 8
 DEFAULT_SUBSTEPS = 4  # substeps per dt of every particle solver (Small Steps: substeps beat iterations)
 _MAX_OMEGA = 2.0  # Jacobi over-relaxation must stay below 2 to converge
 
@@ -53,7 +57,10 @@ class ParticleSettings:
 
     Args:
       substeps: substeps per ``dt`` (>= 1, default 4); the substep is ``h = dt / substeps``.
-      iterations: constraint iterations per substep (>= 1, default 1).
+      iterations: constraint iterations per substep (>= 1), or ``None`` (default): the Simulator takes the fewest,
+        up to :data:`MAX_AUTO_ITERATIONS`, at which the cable's expected static strain under the scene's loads stays
+        within what the model promises (:func:`mjcable.solvers.convergence.resolve_iterations`); 1 at the default substeps of
+        every built-in scene. The Simulator's ``settings`` hold the number it took.
       order: ``"gauss-seidel"`` (sequential projections), ``"jacobi"`` (all corrections from the same positions,
         averaged per particle and scaled by ``omega``) or ``"direct"`` (a banded solve of all chain constraints per
         iteration: tridiagonal, i.e. the Thomas algorithm, for the stretch chain alone; contacts stay sequential).
@@ -72,7 +79,7 @@ class ParticleSettings:
     """
 
     substeps: int = DEFAULT_SUBSTEPS
-    iterations: int = 1
+    iterations: Optional[int] = None
     order: str = "gauss-seidel"
     omega: float = 1.0
     bending: str = "auto"
@@ -82,7 +89,8 @@ class ParticleSettings:
 
     def __post_init__(self):
         _validate.integer("substeps", self.substeps, low=1, high=_validate.MAX_SUBSTEPS)
-        _validate.integer("iterations", self.iterations, low=1, high=_validate.MAX_SUBSTEPS)
+        if self.iterations is not None:
+            _validate.integer("iterations", self.iterations, low=1, high=_validate.MAX_SUBSTEPS)
         _validate.choice("order", self.order, ORDERS)
         _validate.number("omega", self.omega, low=0.0, high=_MAX_OMEGA, low_open=True)
         _validate.choice("bending", self.bending, BENDING_KINDS)
