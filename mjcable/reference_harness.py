@@ -46,6 +46,7 @@ LEG_SAMPLES = 1001  # points per leg of a continuous reference, at equal arc len
 _MIN_SLACK = 1e-6  # the legs must be able to meet with each |J − P_i| at most (1 − this) L_i
 _ROOT_XTOL = 1e-14  # relative tolerance of optimize.root on the scaled unknowns
 _RESIDUAL_TOLERANCE = 1e-10  # largest scaled residual (metres / longest leg, newtons / harness weight) accepted
+_STABILITY_TOLERANCE = 1e-10  # a rigid-link rest state's smallest curvature may dip this far below 0 (relative)
 _UP = np.array([0.0, 0.0, 1.0])
 _MINIMAX_GRADIENT = np.array([0.0, 0.0, 0.0, 1.0])  # gradient of the minimax objective x[3] in _meeting_point
 
@@ -240,7 +241,7 @@ def _rigid_links(pins: np.ndarray, lumped: list, lengths: np.ndarray, g: float, 
     # Stability: -d force / d x is the Hessian of the Lagrangian; on the links' tangent space it must be > 0.
     tangent = linalg.null_space(jac[3 * n_free:, :3 * n_free])
     curvature = linalg.eigvalsh(tangent.T @ -jac[:3 * n_free, :3 * n_free] @ tangent)
-    if curvature.size and not curvature[0] > -_RESIDUAL_TOLERANCE * np.abs(curvature).max():
+    if curvature.size and not curvature[0] > -_STABILITY_TOLERANCE * np.abs(curvature).max():
         raise RuntimeError("y_harness found only an unstable rest state near the catenaries (a link pushes and the "
                            "chain would buckle); use more segments on the legs that fold back to the junction")
     x, tension = unpack(sol.x)
