@@ -58,7 +58,7 @@ from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.impulse_kernels import collect_impulses
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
-    BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
+    BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
     PHASE_BEGIN, PHASE_END, PHASE_HOST_AFTER, PHASE_HOST_BEFORE, PHASE_ITERATE, QUERY_COMPILED, QUERY_PYTHON,
     RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, WARN_STRAIN, SolverState,  # noqa: F401
 )
