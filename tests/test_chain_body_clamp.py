@@ -2,7 +2,8 @@
 the tangent along a direction fixed in the body, and the body feels the clamp's moment. Reference: a heavy
 cantilever clamped to a hub on a hinge spring k across it tilts the hub until the spring's torque k θ is the cable's
 weight moment about the hinge (static balance of the cable, whatever its stiffness), and in the hub's frame the
-cable bends as the clamped heavy elastica (:func:`mjcable.reference.cantilever`)."""
+cable bends as the clamped heavy elastica (:func:`mjcable.reference.cantilever`). The balance on a short rod is
+checked for every particle model (``cosserat`` too) in every order it takes."""
 
 import math
 
@@ -12,6 +13,7 @@ import pytest
 
 import mjcable
 from mjcable import CableSpec, Pin, Scene, reference
+from test_pin_balance import STIFFNESS_WARNING, model_orders
 
 G = 9.81
 RADIUS = 0.005
@@ -65,17 +67,17 @@ def test_a_cantilever_clamped_to_a_hub_tilts_it_by_the_weights_moment(inertia, d
     assert tip == pytest.approx(expected, rel=0.01)
 
 
-@pytest.mark.parametrize("model, options", [
-    ("pbd", {}),
-    ("jakobsen", {}),
-    ("xpbd", dict(order="gauss-seidel", substeps=8)),  # (its warning's fix for the stated stiffness)
-])
-def test_a_gauss_seidel_cantilever_on_a_hub_balances_the_hinge_spring(model, options):
-    """Gauss-Seidel orders give a short rod of few segments its stiffness (a long one is limp, with a warning); the
-    balance of torques holds whatever the shape."""
-    sim, k, moment = _settled(model, 0.2, 10, 1e-4, True, **options)
+@pytest.mark.filterwarnings(STIFFNESS_WARNING)
+@pytest.mark.parametrize("model, order", model_orders())
+def test_a_short_cantilever_on_a_hub_balances_the_hinge_spring_in_every_order(model, order):
+    """Every particle model in every order: the hinge spring carries the cable's weight moment and the pin its
+    weight, whatever the shape (the Gauss-Seidel and Jacobi orders give a short rod of few segments its stiffness;
+    a long one is limp, with a warning)."""
+    sim, k, moment = _settled(model, 0.2, 10, 1e-4, True, order=order)
     theta = sim.mj_data.qpos[0]
     assert theta > 0.01
+    assert abs(sim.mj_data.qvel[0]) < 1e-4
     assert k * theta == pytest.approx(moment, rel=0.01)
     assert -sim.pin_torques[0, 1] == pytest.approx(moment, rel=0.01)
-    assert abs(sim.mj_data.qvel[0]) < 1e-4
+    weight = 0.1 * 0.2 * G
+    np.testing.assert_allclose(sim.pin_forces[0], [0.0, 0.0, weight], atol=0.01 * weight)

@@ -36,7 +36,7 @@ from mjcable.solvers.user_constraints import iteration_factor
 
 __all__ = ["ParticleBackend", "proxy_builder"]
 #: the fields reset() copies back: the chain, its constraints, pins and direct system, friction, the parameters
-_RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "count", "prev", "par", "rest", "lam_s", "rest_d", "lam_d",
+_RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "relax", "prev", "par", "rest", "lam_s", "rest_d", "lam_d",
           "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c", "pin_p", "pin_from", "pin_to", "pin_active",
           "pin_release", "pin_force", "pin_sum", "pin_count", "band", "grad", "rhs", "fric_n", "fric_mu",
           "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob", "q", "q0",

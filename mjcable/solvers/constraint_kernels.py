@@ -70,15 +70,61 @@ def stretch_step_sqrt(dx, dy, dz, wsum, rest, k):
 
 # ---------------------------------------------------------------------------------------------------------------
 # Sweeps: one call per iteration applies all constraints of one type. Corrections go to ``out`` (``x`` itself for
-# Gauss-Seidel, a delta buffer for Jacobi); a held particle (w = 0) collects ∇C Δλ in ``react`` instead.
+# Gauss-Seidel, a delta buffer for Jacobi); a held particle (w = 0) collects ∇C Δλ in ``react`` instead. ``relax``:
+# empty for Gauss-Seidel, else Jacobi's ω / count per particle (:func:`jacobi_relax`).
+
+
+@_jit
+def jacobi_relax(S):
+    """Jacobi's relaxation into ``S.relax``: ω / count per particle, count the active chain constraints on it
+    (stretch, bending, clamps). A constraint takes the smallest of its particles' (:func:`share`): every particle
+    then moves by at most ω times the mean of its constraints' corrections ([M14]'s averaging), and
+    each constraint's pushes stay equal and opposite (the multiplier it accumulates is the one it applied), so that
+    a converged Jacobi iteration reaches the statics of the other orders and a held particle's ``react`` is the
+    push its neighbours actually got. (Scaling each particle's summed corrections by its own ω / count instead made
+    the pushes on a constraint's two ends unequal: the statics of a chain whose particles weigh count / ω times
+    their mass, a hanging chain's pins reporting 1.95 times its weight.)"""
+    relax = S.relax
+    relax[:] = 0.0
+    n = S.rest.shape[0]
+    for i in range(n):
+        relax[i] += 1.0
+        relax[i + 1] += 1.0
+    bending = S.par[0].bending
+    if bending == BEND_CURVATURE:
+        for b in range(n - 1):
+            relax[b] += 1.0
+            relax[b + 1] += 1.0
+            relax[b + 2] += 1.0
+    elif bending == BEND_DISTANCE:
+        for b in range(n - 1):
+            relax[b] += 1.0
+            relax[b + 2] += 1.0
+    for kc in range(S.clamp_pq.shape[0]):
+        if S.pin_active[S.clamp_pin[kc]]:
+            relax[S.clamp_pq[kc, 0]] += 1.0
+            relax[S.clamp_pq[kc, 1]] += 1.0
+    omega = S.par[0].omega
+    for p in range(relax.shape[0]):
+        relax[p] = omega / relax[p] if relax[p] > 0.0 else 0.0
 
 
 @_inline
-def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx):
+def share(relax, i, j, k):
+    """The share of its correction that a constraint on particles i, j, k (repeat one for two) applies: 1 for
+    Gauss-Seidel (``relax`` empty), else the smallest ω / count of the three (:func:`jacobi_relax`)."""
+    if relax.shape[0] == 0:
+        return 1.0
+    return min(relax[i], relax[j], relax[k])
+
+
+@_inline
+def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx, relax):
     """Stretch constraints c = 0..len(rest)−1 between particles c and c + ``gap`` (gap 1: the segments; gap 2: the
     thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23). α̃ = 0 and k = 1 take
-    :func:`stretch_step_rigid`."""
+    :func:`stretch_step_rigid`; ``relax`` non-empty: Jacobi's share of each (:func:`share`)."""
     rigid = alpha_tilde == 0.0 and k == 1.0
+    jacobi = relax.shape[0] > 0
     for c in range(rest.shape[0]):
         i = c
         j = c + gap
@@ -93,6 +139,10 @@ def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx)
             sigma, dlam = stretch_step_rigid(dx, dy, dz, wi + wj, rest[c])
         else:
             sigma, dlam = stretch_step(dx, dy, dz, wi + wj, rest[c], alpha_tilde, lam[c], k)
+        if jacobi:
+            s = share(relax, i, j, j)
+            sigma *= s
+            dlam *= s
         lam[c] += dlam
         if wi > 0.0:
             out[i, 0] += wi * sigma * dx
@@ -113,11 +163,11 @@ def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx)
 
 
 @_jit
-def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k):
+def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k, relax):
     """Curvature bending at every interior particle i = b + 1: the vector constraint
     C = (x_{i−1} − 2xᵢ + x_{i+1}) / l₀², the discrete curvature of a rod that is straight at rest, with energy
     ½ E·I |C|² l₀, i.e. α = 1 / (E·I·l₀). C is linear in x: its gradient is (1, −2, 1)/l₀² times the identity, so
-    the three components decouple and each is one [M16] Eq. 18 update."""
+    the three components decouple and each is one [M16] Eq. 18 update (Jacobi: its :func:`share`)."""
     g2 = inv_l0sq * inv_l0sq
     for b in range(lam.shape[0]):
         i = b + 1
@@ -125,9 +175,10 @@ def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k):
         wb = w[i]
         wc = w[i + 1]
         wsum = (wa + 4.0 * wb + wc) * g2
+        s = share(relax, i - 1, i, i + 1)
         for comp in range(3):
             cval = (x[i - 1, comp] - 2.0 * x[i, comp] + x[i + 1, comp]) * inv_l0sq
-            dlam = xpbd_multiplier(cval, wsum, alpha_tilde, lam[b, comp], k)
+            dlam = s * xpbd_multiplier(cval, wsum, alpha_tilde, lam[b, comp], k)
             lam[b, comp] += dlam
             g = inv_l0sq * dlam
             if wa > 0.0:
@@ -191,16 +242,15 @@ def body_clamp_turn(S, kc, m, g, ex, ey, ez):
 
 
 @_jit
-def clamp_sweep(S, out, scale, alpha_tilde, k, jacobi):
+def clamp_sweep(S, out, scale, alpha_tilde, k, relax):
     """Clamps: the tangent at pinned particle p is held along the clamp axis by the finite-difference clamped
     boundary (w'(0) = 0 through a mirrored ghost particle): two scalar constraints C_m = scale · d_m · (x_q − x_p),
     d_m ⟂ axis, scale = 2 / l₀², carrying half a Voronoi cell of bending energy (α = 2 / (E·I·l₀)); α = 0 holds
     the tangent rigidly. A cantilever of n segments then bends as beam theory to O(1/n²), where fixing the
     neighbour particle instead would clamp half a segment further out (2 % stiff at n = 100). A body clamp's
     directions turn with its body (:func:`body_clamp_turn`: the body's inverse inertia W joins the row's
-    Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment; with ``jacobi`` (``out``
-    the summed corrections, which move the neighbour by ω / count of them) the body takes the same share of its
-    turn, so that its torque stays the moment of the neighbour's actual push (counts from ``_jacobi_counts``)."""
+    Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment. ``relax`` non-empty:
+    Jacobi's :func:`share` of each row, for its particles and its body alike."""
     x, w, react, lam = S.x, S.w, S.react, S.lam_c
     clamp_pq, clamp_pin, pin_active, clamp_dir = S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir
     for kc in range(clamp_pq.shape[0]):
@@ -211,6 +261,7 @@ def clamp_sweep(S, out, scale, alpha_tilde, k, jacobi):
         wp = w[p]
         wq = w[q]
         turns = turns_body(S, kc)
+        s = share(relax, p, q, q)
         for m in range(2):
             dx = clamp_dir[kc, m, 0]
             dy = clamp_dir[kc, m, 1]
@@ -220,11 +271,11 @@ def clamp_sweep(S, out, scale, alpha_tilde, k, jacobi):
             if turns:
                 wsum += body_turn_dot(S, kc, m, m, ex, ey, ez)
             cval = scale * (dx * ex + dy * ey + dz * ez)
-            dlam = xpbd_multiplier(cval, wsum * scale * scale, alpha_tilde, lam[kc, m], k)
+            dlam = s * xpbd_multiplier(cval, wsum * scale * scale, alpha_tilde, lam[kc, m], k)
             lam[kc, m] += dlam
             g = scale * dlam
             if turns:
-                body_clamp_turn(S, kc, m, g * S.par[0].omega / S.count[q] if jacobi else g, ex, ey, ez)
+                body_clamp_turn(S, kc, m, g, ex, ey, ez)
             if wq > 0.0:
                 out[q, 0] += wq * g * dx
                 out[q, 1] += wq * g * dy
@@ -245,13 +296,14 @@ def clamp_sweep(S, out, scale, alpha_tilde, k, jacobi):
 
 @_jit
 def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c, jacobi):
-    """Bending and clamp sweeps, corrections into ``out`` (summed for Jacobi's averaging with ``jacobi``)."""
+    """Bending and clamp sweeps, corrections into ``out`` (with ``jacobi``, Jacobi's shares: ``S.relax``)."""
     x, w, react = S.x, S.w, S.react
+    relax = S.relax if jacobi else S.relax[:0]
     P = S.par[0]
     bending, inv_l0sq = P.bending, P.inv_l0sq
     if bending == BEND_CURVATURE:
-        curvature_sweep(x, out, w, react, inv_l0sq, at_b, S.lam_b, k_b)
+        curvature_sweep(x, out, w, react, inv_l0sq, at_b, S.lam_b, k_b, relax)
     elif bending == BEND_DISTANCE:
-        stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False)
+        stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False, relax)
     if S.clamp_pq.shape[0]:
-        clamp_sweep(S, out, 2.0 * inv_l0sq, at_c, k_c, jacobi)
+        clamp_sweep(S, out, 2.0 * inv_l0sq, at_c, k_c, relax)

@@ -2,10 +2,11 @@
 
 A substep predicts y* = y + h v + h² a (a the acceleration of the loads) and then runs ``iterations`` iterations of
 the constraint rows in the solver's order (Gauss-Seidel: one row after another; Jacobi: all rows from the same
-positions, averaged per particle and scaled by ω; direct: all rows of the banded system at once), the multipliers
-reset to 0 at the substep's start ([M16] Algorithm 1). Linearised about the straight rest shape, one coordinate at a
-time (the rows of a straight chain decouple into the axial and the two transverse directions), every row is linear
-in the positions, so the iterations are a linear map P of the predicted positions: y⁺ = P y*. At a static
+positions, each row applying its share ω / count, the smallest of its particles'; direct: all rows of the banded
+system at once), the multipliers reset to 0 at the substep's start ([M16] Algorithm 1). Linearised about the
+straight rest shape, one coordinate at a time (the rows of a straight chain decouple into the axial and the two
+transverse directions), every row is linear in the positions, so the iterations are a linear map P of the predicted
+positions: y⁺ = P y*. At a static
 equilibrium the substep returns where it started (v = 0):
 
     y = P (y + h² a)   ⇔   (I − P) y = h² P a
@@ -107,18 +108,20 @@ def _direct(rows: Rows, w: np.ndarray, alpha_t: np.ndarray, n_p: int) -> np.ndar
 
 
 def _jacobi(rows: Rows, w: np.ndarray, alpha_t: np.ndarray, omega: float, count: np.ndarray, n_p: int) -> np.ndarray:
-    """One Jacobi iteration as a matrix: every row's Δλ from the same state, the positions moved by ω / count of
-    their summed corrections (count: the chain constraints on each particle, :func:`kernels._jacobi_counts`)."""
+    """One Jacobi iteration as a matrix: every row's Δλ from the same state, each row applying (to its particles
+    and its multiplier) the share s = min ω / count over its particles (count: the chain constraints on each
+    particle; :func:`mjcable.solvers.constraint_kernels.jacobi_relax`)."""
     m = len(rows.k)
     denom = np.sum(rows.grad ** 2 * w, axis=1) + alpha_t
     live = denom > 0.0
-    scale = np.where(live, rows.k / np.where(live, denom, 1.0), 0.0)
+    relax = np.where(count > 0.0, omega / np.where(count > 0.0, count, 1.0), 0.0)
+    share = np.min(np.where(rows.grad != 0.0, relax, np.inf), axis=1)
+    scale = np.where(live, share * rows.k / np.where(live, denom, 1.0), 0.0)
     dlam = np.zeros((m, n_p + m))
     dlam[:, :n_p] = -scale[:, None] * rows.grad
     dlam[np.arange(m), n_p + np.arange(m)] = -scale * alpha_t
-    relax = np.where(count > 0.0, omega / np.where(count > 0.0, count, 1.0), 0.0)
     step = np.eye(n_p + m)
-    step[:n_p] += ((relax * w)[:, None] * rows.grad.T) @ dlam
+    step[:n_p] += (w[:, None] * rows.grad.T) @ dlam
     step[n_p:] += dlam
     return step
 

@@ -593,6 +593,6 @@ def _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0,
             return
     if not _direct_within(S, alpha_s_t, alpha_b_t, rho0):  # Newton diverging: project the rows one by one
         x = S.x
-        stretch_sweep(x, x, S.w, S.react, S.rest, 1, alpha_s_t, S.lam_s, k_s, S.par[0].sqrt_approx)
+        stretch_sweep(x, x, S.w, S.react, S.rest, 1, alpha_s_t, S.lam_s, k_s, S.par[0].sqrt_approx, S.relax[:0])
         if S.par[0].direct_all and (S.par[0].bending != BEND_NONE or S.clamp_pq.shape[0] > 0):
             _bend_clamp_sweeps(S, x, alpha_b_t, alpha_c_t, k_b, k_c, False)

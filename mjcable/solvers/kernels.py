@@ -45,7 +45,7 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
 from mjcable.solvers.constraint_kernels import (
-    _bend_clamp_sweeps, clamp_sweep, curvature_sweep,  # noqa: F401
+    _bend_clamp_sweeps, clamp_sweep, curvature_sweep, jacobi_relax,  # noqa: F401
     stretch_step, stretch_step_rigid, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
 )
 from mjcable.solvers.contact_kernels import (
@@ -58,7 +58,7 @@ from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.impulse_kernels import collect_impulses
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
-    BEND_CURVATURE, BEND_DISTANCE, BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
+    BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
     PHASE_BEGIN, PHASE_END, PHASE_HOST_AFTER, PHASE_HOST_BEFORE, PHASE_ITERATE, QUERY_COMPILED, QUERY_PYTHON,
     RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, WARN_STRAIN, SolverState,  # noqa: F401
 )
@@ -161,31 +161,6 @@ def begin_substep(S, sub, n_sub):
     S.self_lam_t[:P.n_self] = 0.0
 
 
-@_jit
-def _jacobi_counts(S):
-    """Number of active chain constraints on each particle (Jacobi constraint averaging, [M14])."""
-    cnt = S.count
-    cnt[:] = 0.0
-    n = S.rest.shape[0]
-    for i in range(n):
-        cnt[i] += 1.0
-        cnt[i + 1] += 1.0
-    bending = S.par[0].bending
-    if bending == BEND_CURVATURE:
-        for b in range(n - 1):
-            cnt[b] += 1.0
-            cnt[b + 1] += 1.0
-            cnt[b + 2] += 1.0
-    elif bending == BEND_DISTANCE:
-        for b in range(n - 1):
-            cnt[b] += 1.0
-            cnt[b + 2] += 1.0
-    for kc in range(S.clamp_pq.shape[0]):
-        if S.pin_active[S.clamp_pin[kc]]:
-            cnt[S.clamp_pq[kc, 0]] += 1.0
-            cnt[S.clamp_pq[kc, 1]] += 1.0
-
-
 @_inline
 def iterate(S, last):
     """One constraint iteration in the configured order; contacts are projected sequentially last, so that they
@@ -206,23 +181,20 @@ def iterate(S, last):
         direct_solve(S, at_s, at_b, at_c, k_s, k_b, k_c)
         if not P.direct_all and bend_or_clamp:  # PBD/Jakobsen: only the stretch chain is solved directly
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
-    elif order == ORDER_JACOBI:
+    elif order == ORDER_JACOBI:  # every constraint's share of its correction into dx, then all at once
         dx = S.dx
         dx[:] = 0.0
-        _jacobi_counts(S)
-        stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx)
+        jacobi_relax(S)
+        stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax)
         if bend_or_clamp:
             _bend_clamp_sweeps(S, dx, at_b, at_c, k_b, k_c, True)
-        omega = P.omega
-        cnt = S.count
         for p in range(x.shape[0]):
-            if cnt[p] > 0.0 and w[p] > 0.0:
-                f = omega / cnt[p]
-                x[p, 0] += f * dx[p, 0]
-                x[p, 1] += f * dx[p, 1]
-                x[p, 2] += f * dx[p, 2]
+            if w[p] > 0.0:
+                x[p, 0] += dx[p, 0]
+                x[p, 1] += dx[p, 1]
+                x[p, 2] += dx[p, 2]
     else:
-        stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx)
+        stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax[:0])
         if bend_or_clamp:  # a call passing S: skipped when there is nothing to do
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
     n_con, n_self = P.n_con, P.n_self
@@ -333,7 +305,7 @@ def plain_substep(S, sub, n_sub):
     at_s, k_s, sqrt_approx = P.alpha_s / (h * h), P.k_s, P.sqrt_approx
     rest = S.rest
     for _ in range(P.iterations):
-        stretch_sweep(x, x, w, react, rest, 1, at_s, lam_s, k_s, sqrt_approx)
+        stretch_sweep(x, x, w, react, rest, 1, at_s, lam_s, k_s, sqrt_approx, S.relax[:0])
     _velocities(x, S.v, S.x0, 1.0 / h)
     return _pin_forces(S)
 

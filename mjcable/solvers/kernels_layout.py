@@ -152,7 +152,7 @@ FIELDS = (
     ("x", _F2, "(N, 3) m positions"), ("v", _F2, "(N, 3) m/s velocities"), ("x0", _F2, "(N, 3) m substep start"),
     ("w", _F1, "(N,) 1/kg inverse masses (0: held)"), ("mass", _F1, "(N,) kg lumped masses"),
     ("react", _F2, "(N, 3) kg·m Σ ∇C Δλ a held particle collects"), ("dx", _F2, "(N, 3) m Jacobi corrections"),
-    ("count", _F1, "(N,) Jacobi constraint counts"), ("prev", _F2, "(N, 3) m positions before the step"),
+    ("relax", _F1, "(N,) Jacobi relaxation ω / count"), ("prev", _F2, "(N, 3) m positions before the step"),
     ("query_x", _F2, "(N, 3) m positions at the last obstacle query"),
     ("rest", _F1, "(n,) m stretch rest lengths"), ("lam_s", _F1, "(n,) stretch multipliers"),
     ("rest_d", _F1, "(n-1,) m distance-bending rest lengths"), ("lam_d", _F1, "(n-1,) their multipliers"),
@@ -278,8 +278,8 @@ STATE_TYPE = SolverStateType([(name, typ) for name, typ, _ in FIELDS])
 
 
 @_jit
-def _chain(S, x, v, x0, w, mass, react, dx, count, prev, query_x, par):
-    S.x, S.v, S.x0, S.w, S.mass, S.react, S.dx, S.count = x, v, x0, w, mass, react, dx, count
+def _chain(S, x, v, x0, w, mass, react, dx, relax, prev, query_x, par):
+    S.x, S.v, S.x0, S.w, S.mass, S.react, S.dx, S.relax = x, v, x0, w, mass, react, dx, relax
     S.prev, S.query_x, S.par = prev, query_x, par
 
 
@@ -400,7 +400,7 @@ def _new():
 
 #: the parts in the order :func:`assemble` sets them, each with its setter: every field of FIELDS once
 _PARTS = (
-    (_chain, ("x", "v", "x0", "w", "mass", "react", "dx", "count", "prev", "query_x", "par")),
+    (_chain, ("x", "v", "x0", "w", "mass", "react", "dx", "relax", "prev", "query_x", "par")),
     (_constraints, ("rest", "lam_s", "rest_d", "lam_d", "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c")),
     (_pins, ("pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force", "pin_sum", "pin_count")),
     (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs")),

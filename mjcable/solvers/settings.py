@@ -62,8 +62,10 @@ class ParticleSettings:
         within what the model promises (:func:`mjcable.solvers.convergence.resolve_iterations`); 1 at the default substeps of
         every built-in scene. The Simulator's ``settings`` hold the number it took.
       order: ``"gauss-seidel"`` (sequential projections), ``"jacobi"`` (all corrections from the same positions,
-        averaged per particle and scaled by ``omega``) or ``"direct"`` (a banded solve of all chain constraints per
-        iteration: tridiagonal, i.e. the Thomas algorithm, for the stretch chain alone; contacts stay sequential).
+        each constraint applying the share ``omega`` / count, count the most constraints on one of its particles,
+        so that its pushes stay equal and opposite and the pins' reactions are the pushes applied) or
+        ``"direct"`` (a banded solve of all chain constraints per iteration: tridiagonal, i.e. the Thomas
+        algorithm, for the stretch chain alone; contacts stay sequential).
       omega: Jacobi relaxation ω in (0, 2] (ignored by the other orders).
       bending: ``"auto"`` (``"curvature"`` if the cable has E·I > 0 or a bending override is given, else
         ``"none"``), ``"none"``, ``"curvature"`` (the discrete curvature vector at every interior particle) or

@@ -205,7 +205,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     n_pins = len(pins)
     a = StateArrays(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
-        count=np.zeros(n_particles), prev=x.copy(), query_x=x.copy(),
+        relax=np.zeros(n_particles), prev=x.copy(), query_x=x.copy(),
         rest=np.full(n, l0), lam_s=np.zeros(n), lam_gs=np.zeros(n),
         rest_d=np.full(max(n - 1, 0), 2.0 * l0), lam_d=np.zeros(max(n - 1, 0)), lam_b=np.zeros((max(n - 1, 0), 3)),
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
