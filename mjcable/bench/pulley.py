@@ -50,6 +50,13 @@ __all__ = [
     "capstan_margin",
     "Record",
     "run_atwood",
+    "record",
+    "sample",
+    "from_samples",
+    "fit_parabola",
+    "bench_drive",
+    "acceleration_error",
+    "slip_error",
     "Measurement",
     "measure",
     "HEAVY_MASS",
@@ -91,6 +98,7 @@ class AtwoodScene(Scene):
       contact_radius: R_c = R + r in metres: the rope's centreline on the rim.
       mu: the rim's friction coefficient on the rope.
       pulley: the pulley body's name in the world.
+      runs: scratch of one benchmark run (its samples, :func:`bench_drive`); not part of the scene.
     """
 
     masses: tuple = dataclasses.field(default=(HEAVY_MASS, LIGHT_MASS), kw_only=True)
@@ -98,6 +106,7 @@ class AtwoodScene(Scene):
     contact_radius: float = dataclasses.field(default=PULLEY_RADIUS + ROPE_RADIUS, kw_only=True)
     mu: float = dataclasses.field(default=ROPE_FRICTION, kw_only=True)
     pulley: str = dataclasses.field(default="pulley", kw_only=True)
+    runs: dict = dataclasses.field(default_factory=dict, kw_only=True, compare=False, repr=False)
 
 
 def atwood_scene(n_segments: int = SEGMENTS, *, masses=(HEAVY_MASS, LIGHT_MASS), inertia: float = PULLEY_INERTIA,
@@ -185,8 +194,9 @@ def capstan_margin(scene: AtwoodScene, *, g: float = reference.G) -> float:
 @dataclasses.dataclass(frozen=True)
 class Record:
     """A run of the Atwood machine: ``times`` (m,) s, the heavy box's ``drop`` (m,) m (its centre's fall from
-    the start), its downward speed ``speed`` (m,) m/s and the pulley's ``rim_speed`` (m,) m/s (the hinge's
-    ω · R_c, positive when it turns with the heavy box falling), and the ``scene``."""
+    the start), its downward speed ``speed`` (m,) m/s, the pulley's ``rim_speed`` (m,) m/s (the hinge's
+    ω · R_c, positive when it turns with the heavy box falling), the rope's ``rope_speed`` (m,) m/s along the rim
+    (its particles' on the pulley's upper half, averaged), and the ``scene``."""
 
     times: np.ndarray
     drop: np.ndarray
@@ -207,24 +217,30 @@ def run_atwood(model: str, *, dt: float = 0.002, scene: Optional[AtwoodScene] = 
 def record(sim: Simulator, duration: float) -> Record:
     """Run ``sim`` (an :func:`atwood_scene`) for ``duration`` s from where it is, sampling every
     :data:`SAMPLE_EVERY`."""
-    scene = sim.scene
+    every = max(1, int(round(SAMPLE_EVERY / sim.dt)))
+    rows = [sample(sim)]
+    for _ in range(int(round(duration / (every * sim.dt)))):
+        sim.step(every * sim.dt)
+        rows.append(sample(sim))
+    return from_samples(rows, sim.scene)
+
+
+def sample(sim: Simulator) -> tuple:
+    """One sample of ``sim`` (an :func:`atwood_scene`): ``(time s, the heavy box's height m, its downward speed
+    m/s, the rim's speed m/s, the rope's speed on the rim m/s)`` (:class:`Record`)."""
     m, d = sim.mj_model, sim.mj_data
     box = m.body(HEAVY_BODY).id
-    hinge = m.joint(pulley_world.hinge_name(scene.pulley))
-    adr, dof = int(hinge.qposadr[0]), int(hinge.dofadr[0])
+    dof = int(m.joint(pulley_world.hinge_name(sim.scene.pulley)).dofadr[0])
+    linear = int(m.jnt_dofadr[m.body_jntadr[box]])  # the free joint's first three: the linear velocity
     # the hinge's axis is +y: the heavy box on the left (−x) falls as the pulley turns by −ω about y
-    every = max(1, int(round(SAMPLE_EVERY / sim.dt)))
-    count = int(round(duration / (every * sim.dt)))
-    z0 = float(d.xpos[box, 2])
-    rows = []
-    for k in range(count + 1):
-        if k:
-            sim.step(every * sim.dt)
-        free = int(m.body_jntadr[box])
-        rows.append((sim.time, z0 - float(d.xpos[box, 2]), -float(d.qvel[int(m.jnt_dofadr[free]) + 2]),
-                     -float(d.qvel[dof]) * scene.contact_radius, _wrap_speed(sim.positions, sim.velocities)))
-    t, drop, speed, rim, rope = np.array(rows).T
-    return Record(times=t, drop=drop, speed=speed, rim_speed=rim, rope_speed=rope, scene=scene)
+    return (sim.time, float(d.xpos[box, 2]), -float(d.qvel[linear + 2]), -float(d.qvel[dof]) * sim.scene.contact_radius,
+            _wrap_speed(sim.positions, sim.velocities))
+
+
+def from_samples(rows, scene: AtwoodScene) -> Record:
+    """The :class:`Record` of :func:`sample`'s ``rows`` (the first one at the start) of ``scene``."""
+    t, z, speed, rim, rope = np.array(rows, dtype=np.float64).T
+    return Record(times=t, drop=z[0] - z, speed=speed, rim_speed=rim, rope_speed=rope, scene=scene)
 
 
 def _wrap_speed(x: np.ndarray, v: np.ndarray) -> float:
@@ -271,3 +287,26 @@ def measure(run: Record, *, window=WINDOW) -> Measurement:
     late = t >= 0.5 * (t[0] + t[-1])
     slip = abs(float(np.mean(run.rim_speed[inside][late])) / float(np.mean(run.speed[inside][late])) - 1.0)
     return Measurement(acceleration=a, expected=expected, acceleration_error=abs(a / expected - 1.0), slip=slip)
+
+
+# ------------------------------------------------------------------------------- the benchmark's scenarios' hooks
+
+
+def bench_drive(sim: Simulator, t: float, params: dict) -> None:
+    """The ``pulley`` scenarios' drive: it drives nothing, and records a :func:`sample` before each of the runner's
+    samples (every 5 ms) into the scene's ``runs``."""
+    sim.scene.runs.setdefault("rows", []).append(sample(sim))
+
+
+def _measured(scene: AtwoodScene) -> Measurement:
+    return measure(from_samples(scene.runs.pop("rows"), scene))
+
+
+def acceleration_error(scene: AtwoodScene, x: np.ndarray, history: dict) -> float:
+    """The ``pulley`` scenario's error: :attr:`Measurement.acceleration_error` of the run's samples."""
+    return _measured(scene).acceleration_error
+
+
+def slip_error(scene: AtwoodScene, x: np.ndarray, history: dict) -> float:
+    """The ``pulley_slip`` scenario's error: :attr:`Measurement.slip` of the run's samples."""
+    return _measured(scene).slip
