@@ -160,6 +160,17 @@ def test_gauss_seidel_at_the_defaults_warns_and_lets_the_rope_slip(model):
 def test_a_rope_slips_on_a_pulley_beyond_the_capstan_law(model):
     """μ = 0.01: the tension ratio the boxes need across the half turn is 1.07 times e^{μπ}, so the rope slides
     and the rim lags far behind it; at μ = 0.1 (0.81 times) it holds."""
-    assert pulley.capstan_margin(pulley.atwood_scene(mu=0.01)) > 1.0 > pulley.capstan_margin(pulley.atwood_scene(mu=0.1))
+    margins = [pulley.capstan_margin(pulley.atwood_scene(mu=mu)) for mu in (0.01, 0.1)]
+    assert margins[0] > 1.0 > margins[1]
     assert _run(model, {}, mu=0.01).slip > 0.3
     assert _run(model, {}, mu=0.1).slip < 2 * SLIP_TOLERANCE
+
+
+def test_the_bench_measures_the_pulley_family():
+    """The bench's ``pulley`` and ``pulley_slip`` scenarios measure what the must-show does (``xpbd``, the bench's
+    50 segments)."""
+    from mjcable.bench import Case, run_case
+
+    rows = [run_case(Case(name, "xpbd", 0.002, quick=True)) for name in ("pulley", "pulley_slip")]
+    assert [row["outcome"] for row in rows] == ["stable", "stable"]
+    assert rows[0]["error"] < ACCELERATION_TOLERANCE and rows[1]["error"] < SLIP_TOLERANCE

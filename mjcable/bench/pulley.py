@@ -115,8 +115,9 @@ def atwood_scene(n_segments: int = SEGMENTS, *, masses=(HEAVY_MASS, LIGHT_MASS),
     """Two free boxes hanging on a limp inextensible rope over a pulley on a frictionless hinge about y.
 
     The pulley's axis is at (0, 0, :data:`PULLEY_HEIGHT`); the rope starts on a half circle above it whose chords'
-    middles are :data:`START_CLEARANCE` clear of the rim, with vertical legs at x = ∓R_c whose ends are the boxes'
-    top faces' centres (body pins: the first particle holds m₁, the last m₂). The boxes touch nothing.
+    middles are :data:`START_CLEARANCE` clear of the rim, with vertical legs below its ends (x = ∓ the arc's
+    radius) whose ends are the boxes' top faces' centres (body pins: the first particle holds m₁, the last m₂).
+    The boxes touch nothing.
 
     Args:
       n_segments: the rope's segments.
@@ -132,6 +133,7 @@ def atwood_scene(n_segments: int = SEGMENTS, *, masses=(HEAVY_MASS, LIGHT_MASS),
     m2 = _validate.number("masses[1]", masses[1], low=0.0, low_open=True, unit="kg")
     legs = tuple(_validate.number(f"legs[{i}]", leg, low=2.0 * BOX_HALF, low_open=True, unit="m")
                  for i, leg in enumerate(legs))
+    mu = _validate.number("mu", mu, low=0.0)
     density = _validate.number("rope_density", rope_density, low=0.0, low_open=True, unit="kg/m")
     rc = radius + ROPE_RADIUS
     spec = mujoco.MjSpec()
@@ -158,7 +160,8 @@ def atwood_scene(n_segments: int = SEGMENTS, *, masses=(HEAVY_MASS, LIGHT_MASS),
         return [d for d in step * 2.0 ** np.arange(1, 30) if d < leg - step] + [leg]
 
     left = [[-start, 0.0, PULLEY_HEIGHT - d] for d in reversed(depths(ends[0]))]
-    arc = [[-start * math.cos(a), 0.0, PULLEY_HEIGHT + start * math.sin(a)] for a in np.linspace(0, math.pi, ARC_POINTS)]
+    arc = [[-start * math.cos(a), 0.0, PULLEY_HEIGHT + start * math.sin(a)]
+           for a in np.linspace(0.0, math.pi, ARC_POINTS)]
     right = [[start, 0.0, PULLEY_HEIGHT - d] for d in depths(ends[1])]
     cable = CableSpec(left + arc + right, n_segments, ROPE_RADIUS, density * total, friction=mu)
     pins = (Pin(0, "body", body=HEAVY_BODY, offset=(0.0, 0.0, BOX_HALF)),

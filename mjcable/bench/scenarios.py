@@ -457,7 +457,7 @@ SCENARIOS: Dict[str, Scenario] = {
         _incline("incline_slide_across", INCLINE_SLIDE_TILT, across=True),
         *(Scenario(name, f"{what}; the Atwood machine over a pulley on a frictionless hinge (m₁ = 2 kg, m₂ = 1 kg, "
                    "I / R_c² = 0.46 kg, μ = 1), fitted over 0.15-0.6 s", lambda n, p: pulley.atwood_scene(n),
-                   duration=pulley.WINDOW[1] + pulley.SAMPLE_EVERY, quick_duration=pulley.WINDOW[1] + pulley.SAMPLE_EVERY,
+                   duration=pulley.DURATION + pulley.SAMPLE_EVERY, quick_duration=pulley.DURATION + pulley.SAMPLE_EVERY,
                    error_kind="relative", evaluate=evaluate, drive=pulley.bench_drive, passive=False)
           for name, what, evaluate in (
               ("pulley", "relative error of the heavy box's acceleration against the heavy-rope Atwood machine",
