@@ -39,6 +39,11 @@ And the contact families (scenes and measurements in :mod:`mjcable.bench.contact
   (:func:`mjcable.bench.contact.fit_acceleration`); error = |a − a_ref| / a_ref when it should slide, |a| / (g sin θ)
   when it should stick (:func:`mjcable.reference.incline_acceleration`).
 
+And the pulley family (scene and measurement in :mod:`mjcable.bench.pulley`): ``pulley`` (two boxes of 2 and 1 kg
+on a rope over a pulley on a frictionless hinge in a user world: relative error of the heavy box's acceleration,
+fitted over 0.15-0.6 s, against the heavy-rope Atwood machine with the pulley's inertia) and ``pulley_slip`` (the
+same run: |ω R_c / v_box − 1| over the window's second half, 0 without slip).
+
 And the twist family (scenes, paths and errors in :mod:`mjcable.bench.twist`), for the models with material frames
 (the others are ``rejected``): ``torsion`` (a clamped rod's end turned by π: relative error of the end torque
 against G·J φ / L) and ``arc`` (its end carried onto a quarter circle with the arc's tangent: largest distance in
@@ -67,7 +72,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
-from mjcable.bench import contact, twist
+from mjcable.bench import contact, pulley, twist
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -450,6 +455,14 @@ SCENARIOS: Dict[str, Scenario] = {
         _incline("incline_slide", INCLINE_SLIDE_TILT, across=False),
         _incline("incline_stick_across", INCLINE_STICK_TILT, across=True),
         _incline("incline_slide_across", INCLINE_SLIDE_TILT, across=True),
+        *(Scenario(name, f"{what}; the Atwood machine over a pulley on a frictionless hinge (m₁ = 2 kg, m₂ = 1 kg, "
+                   "I / R_c² = 0.46 kg, μ = 1), fitted over 0.15-0.6 s", lambda n, p: pulley.atwood_scene(n),
+                   duration=pulley.DURATION + pulley.SAMPLE_EVERY, quick_duration=pulley.DURATION + pulley.SAMPLE_EVERY,
+                   error_kind="relative", evaluate=evaluate, drive=pulley.bench_drive, passive=False)
+          for name, what, evaluate in (
+              ("pulley", "relative error of the heavy box's acceleration against the heavy-rope Atwood machine",
+               pulley.acceleration_error),
+              ("pulley_slip", "slip: |rim speed / box speed − 1|", pulley.slip_error))),
         Scenario("torsion", "rod clamped at both ends in zero gravity, one end turned by π; relative error of the "
                  "end torque against G·J φ / L (models with material frames)",
                  lambda n, p: twist.twist_scene(n), duration=1.5, quick_duration=1.5, error_kind="relative",

@@ -337,10 +337,13 @@ def static_strain(scene: Scene, compliance: float, *, hung: Optional[np.ndarray]
 
 
 def hanging_support(scene: Scene) -> Optional[int]:
-    """The particle an unpinned cable hangs from, where it starts hanging from an obstacle: its highest particle, if
-    no pin holds it, the scene has obstacles or a user world, and most of its start segments are steeper than
+    """The particle a cable hangs from, where it starts hanging from an obstacle: its highest particle, if no pin
+    holds it in place (no pins, or only body pins whose bodies hang on it: boxes at the ends of a rope over a
+    pulley), the scene has obstacles or a user world, and most of its start segments are steeper than
     :data:`HANGING_SLOPE` (a rope over a peg, a cable draped over a bar); else ``None``."""
-    if scene.pins or not (scene.obstacles or scene.world is not None):
+    weights = scene.hanging_weights if scene.pins else np.zeros(0)
+    held = any(pin.kind != "body" or weight == 0.0 for pin, weight in zip(scene.pins, weights))
+    if held or not (scene.obstacles or scene.world is not None):
         return None
     x = np.asarray(scene.cable.particles, dtype=np.float64)
     d = np.diff(x, axis=0)
