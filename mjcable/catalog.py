@@ -286,7 +286,8 @@ for _module, _settings, _summary, _missing in (
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="native", settings=_settings,
                         build=spec_builder(_module.build), backend=NativeBackend, summary=_summary,
                         ignores=getattr(_module, "IGNORES", {}), check=getattr(_module, "precheck", None),
-                        twist=_module is composite, frames=_module in (joints, composite)))
+                        twist=_module is composite, frames=_module in (joints, composite),
+                        several_cables=True, junctions=True))
 for _module, _settings, _summary in (
         (jakobsen, JakobsenSettings, "Jakobsen's Verlet relaxation"),
         (pbd, PBDSettings, "Position Based Dynamics"),

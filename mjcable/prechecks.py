@@ -68,12 +68,14 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
     Raises:
       ValueError: where the model's own rule says no result can be right.
     """
-    _ignored(scene, entry, settings)
-    _fall(scene, entry, settings, dt)
-    if entry.check is not None:
-        entry.check(scene, settings, dt)
-    if entry.family == "particle":
-        _iterations(scene, entry, settings, dt)
+    for c in range(len(scene.cables)):  # several cables: each one's rules (the junctions' loads left out)
+        one = scene.cable_scene(c)
+        _ignored(one, entry, settings)
+        _fall(one, entry, settings, dt)
+        if entry.check is not None:
+            entry.check(one, settings, dt)
+        if entry.family == "particle":
+            _iterations(one, entry, settings, dt)
 
 
 def _warn(message: str) -> None:

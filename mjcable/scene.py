@@ -373,6 +373,10 @@ class Scene:
         p.setflags(write=False)
         return p
 
+    def cable_of(self, i: int) -> int:
+        """The cable (an index into :attr:`cables`) of global particle ``i`` (0 <= i < :attr:`n_particles`)."""
+        return next(c for c, s in enumerate(self.cable_slices) if i < s.stop)
+
     def _global(self, cable: int, index: int) -> int:
         """The global particle index of particle ``index`` (negative from the end) of cable ``cable``."""
         return self.cable_slices[cable].start + index % self.cables[cable].n_particles
@@ -385,7 +389,7 @@ class Scene:
         """`` (cable c, index k)`` for global particle ``i`` in a scene of several cables, nothing for one."""
         if isinstance(self.cable, CableSpec):
             return ""
-        c = next(c for c, s in enumerate(self.cable_slices) if i < s.stop)
+        c = self.cable_of(i)
         return f" (cable {c}, index {i - self.cable_slices[c].start})"
 
     def _check_end(self, what: str, cable: int, index: int) -> None:
@@ -499,6 +503,17 @@ class Scene:
     def grippers(self) -> tuple:
         """Indices into ``pins`` of the gripper pins."""
         return tuple(k for k, p in enumerate(self.pins) if p.kind == "gripper")
+
+    def cable_scene(self, c: int) -> "Scene":
+        """Cable ``c`` alone: a one-cable scene with its pins (``Pin.cable`` 0, in ``pins`` order), the obstacles and
+        the world, without junctions (the scene itself where it is one cable without junctions). Per-cable rules
+        (stability, warnings) and the native models' per-cable builds use it; what the other cables and the junctions
+        add to its load is not in it."""
+        if isinstance(self.cable, CableSpec) and not self.junctions:
+            return self
+        pins = tuple(dataclasses.replace(pin, cable=0) for pin in self.pins if pin.cable == c)
+        return Scene(self.cables[c], pins, self.obstacles, name=f"{self.name}_cable{c}", world=self.world,
+                     keyframe=self.keyframe)
 
     def with_cable(self, **overrides) -> "Scene":
         """A copy with ``CableSpec`` fields replaced (e.g. ``n_segments=100``); one-cable scenes only.

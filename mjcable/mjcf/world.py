@@ -226,7 +226,7 @@ def pinned_segments(scene: Scene, body: str) -> set:
 def _exclude_pinned_bodies(spec: mujoco.MjSpec, scene: Scene) -> None:
     """No contacts between a body pin's body and the cable bodies holding the particles within
     ``BODY_PIN_REACH`` of its particle: the cable's end starts touching the body it is fastened to."""
-    n = scene.cable.n_particles
+    n = scene.n_particles
     pairs = set()
     for k, pin in enumerate(scene.pins):
         if pin.kind != "body":
@@ -260,10 +260,10 @@ def stiffen_obstacle_contacts(spec: mujoco.MjSpec, scene: Scene, timestep: float
 
 
 def _cable_box(scene: Scene) -> np.ndarray:
-    """(2, 3) bounds of where the cable can be: its start particles, grown downwards by its slack."""
-    p = scene.cable.particles
+    """(2, 3) bounds of where the cables can be: their start particles, grown downwards by the largest slack."""
+    p = scene.particles
     lo, hi = p.min(axis=0), p.max(axis=0)
-    slack = max(scene.cable.length - float(np.linalg.norm(p[-1] - p[0])), 0.0)
+    slack = max(max(c.length - float(np.linalg.norm(c.particles[-1] - c.particles[0])), 0.0) for c in scene.cables)
     if not scene.pins:
         slack = 0.0
     lo = lo - np.array([0.0, 0.0, 0.5 * slack])
@@ -294,7 +294,7 @@ def _axes_quat(x_axis, y_axis) -> np.ndarray:
 
 
 def _add_obstacle(world, scene: Scene, i: int, ob) -> None:
-    mu = scene.cable.friction if ob.friction is None else ob.friction
+    mu = max(c.friction for c in scene.cables) if ob.friction is None else ob.friction  # several: the largest
     common = dict(
         name=f"obstacle{i}", pos=ob.pos, quat=geometry.quaternion(ob.euler),
         friction=[mu, *_TORSION_ROLL_FRICTION], priority=1,  # higher priority: this μ is the one in force
