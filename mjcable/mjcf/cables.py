@@ -41,8 +41,6 @@ MAX_CABLES = 30  # contype is a 32-bit int: the bits left for the cables
 CLAMP_REFUSAL = ("a clamped junction (Junction(..., clamp=True)) is not supported by the native models yet: their "
                  "junctions are connect equalities (ball joints); use clamp=False")
 _OPTIONS = ("timestep", "gravity", "integrator", "cone", "impratio", "viscosity", "jacobian")
-_PALETTE = ((0.85, 0.25, 0.12), (0.12, 0.45, 0.85), (0.2, 0.65, 0.25), (0.8, 0.6, 0.1), (0.55, 0.3, 0.75),
-            (0.1, 0.65, 0.65))  # the cables' colours, cable 0 the one-cable scene's
 
 
 def prefix(scene: Scene, c: int) -> str:
@@ -126,7 +124,7 @@ def _own(sub: mujoco.MjSpec, c: int, scene: Scene, timestep: float, self_collisi
         sub.delete(element)
     for material in sub.materials:
         material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = ""
-    sub.material("cable").rgba = [*_PALETTE[c % len(_PALETTE)], 1.0]
+    sub.material("cable").rgba = list(world.CABLE_COLOURS[c % len(world.CABLE_COLOURS)])
     own = 1 << (FIRST_CABLE_BIT + c)
     joined = {scene.cable_of(i) for group in _points(scene) if c in {scene.cable_of(i) for i in group}
               for i in group} | {c}

@@ -50,12 +50,16 @@ __all__ = [
     "CABLE_CONTYPE",
     "OBSTACLE_CONTYPE",
     "CAMERA",
+    "CABLE_COLOURS",
     "START_KEY",
     "CONTACT_SOLREF_STEPS",
     "stiffen_obstacle_contacts",
 ]
 
 CAMERA = "overview"
+#: RGBA of each cable's material and drawing (cable c: ``CABLE_COLOURS[c % len(CABLE_COLOURS)]``)
+CABLE_COLOURS = ((0.85, 0.25, 0.12, 1.0), (0.12, 0.45, 0.85, 1.0), (0.2, 0.65, 0.25, 1.0), (0.8, 0.6, 0.1, 1.0),
+                 (0.55, 0.3, 0.75, 1.0), (0.1, 0.65, 0.65, 1.0))
 START_KEY = "start"  # keyframe holding the scene's start pose where a model compiles in another (straight) pose
 _TORSION_ROLL_FRICTION = (0.005, 0.0001)
 _FLOOR_HALF_SIZE = 5.0  # m, rendered extent of a Floor plane
@@ -161,7 +165,7 @@ def _add_materials(spec: mujoco.MjSpec, *, grid: bool, have: frozenset = frozens
                          rgb1=[0.82, 0.84, 0.86], rgb2=[0.72, 0.74, 0.77], width=300, height=300)
         material = spec.add_material(name="grid", texrepeat=[8, 8], reflectance=0.05)
         material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
-    for name, rgba in (("obstacle", [0.62, 0.5, 0.38, 1.0]), ("cable", [0.85, 0.25, 0.12, 1.0]),
+    for name, rgba in (("obstacle", [0.62, 0.5, 0.38, 1.0]), ("cable", list(CABLE_COLOURS[0])),
                        ("gripper", [0.2, 0.4, 0.9, 0.6])):
         if name not in have:
             spec.add_material(name=name, rgba=rgba)
