@@ -20,17 +20,20 @@ spec of its own, attached to the scene's world (:func:`mjcable.mjcf.world.new_sp
 
 Options that a generator sets for its cable (``joints``: the medium's viscosity that drags its segments, and the
 integrator) are the model's: the most implicit integrator any cable needs, and one viscosity, which cables of
-different drag per segment cannot share (a ``ValueError``).
+different drag per segment cannot share: the largest, with a :class:`~mjcable.errors.PhysicsWarning` that gives the
+damping rates the others get (damping never changes a static equilibrium).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Callable
 
 import mujoco
 import numpy as np
 
+from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 
@@ -40,6 +43,7 @@ FIRST_CABLE_BIT = 2  # cable c's geoms carry contact bit 2 + c (bits 0 and 1: ob
 MAX_CABLES = 30  # contype is a 32-bit int: the bits left for the cables
 CLAMP_REFUSAL = ("a clamped junction (Junction(..., clamp=True)) is not supported by the native models yet: their "
                  "junctions are connect equalities (ball joints); use clamp=False")
+_SAME = 1e-9  # relative: viscosities this close are one
 _OPTIONS = ("timestep", "gravity", "integrator", "cone", "impratio", "viscosity", "jacobian")
 
 
@@ -170,11 +174,15 @@ def _options(spec: mujoco.MjSpec, scene: Scene, options: list, model: str) -> No
     integrators = {int(i) for i, _ in options}
     spec.option.integrator = euler if integrators == {int(euler)} else mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     viscosities = [v for _, v in options]
-    if max(viscosities) - min(viscosities) > 1e-9 * max(viscosities):
-        raise ValueError(f"{model}: the cables' damping needs medium viscosities {viscosities} Pa·s, but a MuJoCo "
-                         f"model has one; give the cables the same damping, mass per segment, radius and segment "
-                         f"length, or damping=0")
-    spec.option.viscosity = viscosities[0]
+    spec.option.viscosity = max(viscosities)
+    if max(viscosities) - min(viscosities) > _SAME * max(viscosities):
+        rates = [c.damping * max(viscosities) / v if v > 0.0 else 0.0 for c, v in zip(scene.cables, viscosities)]
+        warnings.warn(f"{model}: the cables' damping needs medium viscosities {np.round(viscosities, 6).tolist()} Pa·s "
+                      f"(the drag of each cable's segments), but a MuJoCo model has one: with the largest, the cables "
+                      f"damp at {np.round(rates, 4).tolist()} 1/s instead of "
+                      f"{[c.damping for c in scene.cables]} (statics are not changed); give the cables the same "
+                      f"damping, mass per segment, radius and segment length for exact rates", PhysicsWarning,
+                      stacklevel=6)
     spec.option.jacobian = mujoco.mjtJacobian.mjJAC_AUTO
 
 
