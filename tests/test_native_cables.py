@@ -182,11 +182,32 @@ def test_cables_of_different_drag_share_one_viscosity_with_a_warning():
         mjcable.Simulator(mjcable.Scene((a, a)), "joints")  # the same drag: no warning
 
 
+def _tangent_angles(scene, x):
+    """Degrees between leg 0's tangent at the junction and legs 1's and 2's."""
+    t = [x[s][-2] - x[s][-1] for s in scene.cable_slices]
+    t = [v / np.linalg.norm(v) for v in t]
+    return np.degrees(np.arccos([t[0] @ t[1], t[0] @ t[2]]))
+
+
 @pytest.mark.parametrize("model", NATIVE)
-def test_a_clamped_junction_is_refused(model):
-    scene = mjcable.Scene(y_harness(4).cables, junctions=(mjcable.Junction((0, -1), (1, -1), clamp=True),))
-    with pytest.raises(ValueError, match=rf"{model}: junctions\[0\]: a clamped junction .* is not supported"):
-        mjcable.Simulator(scene, model)
+def test_a_clamped_junction_keeps_the_angle_between_its_tangents(model):
+    """Junction(..., clamp=True): the legs' tangents at the junction keep their start angles (a weld of the segment
+    bodies, or the neighbours' distance for point masses) while the harness settles, and each leg stays in balance
+    under its weight, its pin and the junctions' forces (the clamp's part included)."""
+    base = y_harness(10)
+    scene = mjcable.Scene(base.cables, base.pins,
+                          junctions=tuple(mjcable.Junction(j.a, j.b, clamp=True) for j in base.junctions))
+    sim = mjcable.Simulator(scene, model, dt=0.002)
+    start = _tangent_angles(scene, sim.positions)
+    sim.step(4.0)
+    np.testing.assert_allclose(_tangent_angles(scene, sim.positions), start, atol=0.2)
+    free = mjcable.Simulator(base, model, dt=0.002)
+    free.step(4.0)
+    assert np.abs(_tangent_angles(base, free.positions) - start).max() > 5.0  # a ball joint lets them turn
+    pins, junction = sim.pin_forces, sim.junction_forces
+    for c, (cable, on_leg) in enumerate(zip(scene.cables, [-junction.sum(axis=0), junction[0], junction[1]])):
+        balance = pins[c] + on_leg + [0.0, 0.0, -G * cable.mass]
+        assert np.linalg.norm(balance) < 0.01 * G * cable.mass, f"{model}: leg {c} is off balance by {balance} N"
 
 
 def test_body_pins_in_a_scene_of_several_cables_are_refused():

@@ -44,13 +44,16 @@ DIVERGENCE_WARNINGS = {  # index into data.warning -> what it means
     int(mujoco.mjtWarning.mjWARN_CNSTRFULL): "constraint buffer full (mjWARN_CNSTRFULL)",
 }
 _CONNECT_ROWS = 3  # a connect equality constrains three position components
+_WELD_ROWS = 6  # a weld: three position components, then three of orientation
 
 
-def spec_builder(generate: Callable[..., mujoco.MjSpec]) -> Callable[[Scene, NativeSettings, float], mujoco.MjSpec]:
+def spec_builder(generate: Callable[..., mujoco.MjSpec], *,
+                 frames: bool = False) -> Callable[[Scene, NativeSettings, float], mujoco.MjSpec]:
     """The catalogue's builder ``(scene, settings, dt) -> MjSpec`` for a native generator
     ``generate(scene, *, timestep, self_collision)``: MuJoCo steps at ``dt / substeps``, and a scene where nothing
     can touch skips MuJoCo's collision pipeline altogether. In a user world the cable goes into the user's spec
-    (:func:`mjcable.mjcf.world.finish`). Several cables, junctions and loops: :func:`mjcable.mjcf.cables.assemble`."""
+    (:func:`mjcable.mjcf.world.finish`). Several cables, junctions and loops: :func:`mjcable.mjcf.cables.assemble`
+    (``frames``: the model's cable is segment bodies, whose clamped junctions are welds)."""
 
     model = generate.__module__.rsplit(".", 1)[-1]
 
@@ -58,7 +61,7 @@ def spec_builder(generate: Callable[..., mujoco.MjSpec]) -> Callable[[Scene, Nat
         options = dict(timestep=dt / settings.substeps, self_collision=settings.self_collision)
         with world.user_names(scene):
             if len(scene.cables) > 1 or scene.junctions:
-                made = cables.assemble(scene, generate, model, **options)
+                made = cables.assemble(scene, generate, model, frames=frames, **options)
             else:
                 made = generate(scene, **options)
             spec = world.finish(made, scene)
@@ -116,8 +119,13 @@ class NativeBackend:
                                            cables.pin_name(scene, k, world.pin_equality, clamp=c, roll=r))
                                   for c, r in ((False, False), (True, False), (False, True))]
                                  for k in range(len(scene.pins))], dtype=np.int64).reshape(-1, 3)
-        self._junction_eq = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, cables.junction_equality(j))
-                                      for j in range(len(scene.junctions))], dtype=np.int64)
+        # junction j -> its connect (or weld) and its clamp's tendon equality (-1: none), and the sites of the
+        # clamp's tendon ends, the inward neighbours of particles a and b
+        self._junction_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, cables.junction_equality(j, clamp=c))
+                                       for c in (False, True)] for j in range(len(scene.junctions))],
+                                     dtype=np.int64).reshape(-1, 2)
+        self._junction_ends = np.array([[self._sites[cables.inward(scene, i)] for i in scene.junction_particles(j)]
+                                        for j in range(len(scene.junctions))], dtype=np.int64).reshape(-1, 2)
         # pin k -> the sites its second (a clamp body's, else the neighbour particle's) and third connects hold
         # (-1: none)
         self._clamp_site = np.array([self._clamp_site_of(k) if self._pin_eq[k, 1] >= 0 else -1
@@ -276,13 +284,14 @@ class NativeBackend:
             mujoco.mj_flex(m, d)  # flexvert_xpos too (rendering draws the flex from it)
 
     def _equality_force(self, eq: int) -> np.ndarray:
-        """The (3,) force in N that connect equality ``eq`` exerted on its first site in the last constraint solve."""
+        """The (3,) force in N that connect (or weld) equality ``eq`` exerted on its first site (body) in the last
+        constraint solve (a weld's first three rows)."""
         d = self.mj_data
         nefc = d.nefc
         rows = np.flatnonzero((d.efc_type[:nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (d.efc_id[:nefc] == eq))
-        if len(rows) != _CONNECT_ROWS:  # inactive (a released socket) or not in the last solve
+        if len(rows) not in (_CONNECT_ROWS, _WELD_ROWS):  # inactive (a released socket) or not in the last solve
             return np.zeros(3)
-        return d.efc_force[rows].copy()
+        return d.efc_force[rows[:_CONNECT_ROWS]].copy()
 
     def _release_sockets(self) -> None:
         d = self.mj_data
@@ -343,9 +352,20 @@ class NativeBackend:
         return self._pin_wrenches()[:, 3:]
 
     def junction_forces(self) -> np.ndarray:
-        """``(len(scene.junctions), 3)`` N: the force each junction's connect equality exerted on its particle b in
-        the last constraint solve (its first site; −that on particle a)."""
-        return np.array([self._equality_force(int(eq)) for eq in self._junction_eq]).reshape(-1, 3)
+        """``(len(scene.junctions), 3)`` N: the force each junction exerted on cable b in the last constraint solve:
+        its connect's (or weld's) on particle b (the equality's first site or body; −that on particle a), plus a
+        point-mass clamp's tendon equality's on b's neighbour (its force f pulls the neighbours together along
+        the tendon: f (x_b' − x_a') / |x_b' − x_a'| on b')."""
+        d = self.mj_data
+        out = np.zeros((len(self._junction_eq), 3))
+        for j, (eq, clamp) in enumerate(self._junction_eq.tolist()):
+            out[j] = self._equality_force(eq)
+            if clamp >= 0:
+                rows = np.flatnonzero((d.efc_type[:d.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+                                      & (d.efc_id[:d.nefc] == clamp))
+                span = d.site_xpos[self._junction_ends[j, 1]] - d.site_xpos[self._junction_ends[j, 0]]
+                out[j] += float(d.efc_force[rows].sum()) * span / np.linalg.norm(span)
+        return out
 
     def pin_torques(self) -> np.ndarray:
         return self._pin_wrenches()[:, :3]

@@ -12,7 +12,12 @@ spec of its own, attached to the scene's world (:func:`mjcable.mjcf.world.new_sp
   (the larger of the two cables' μ); the cables' geoms get the stiff contact time constant the obstacles have
   (:data:`mjcable.mjcf.world.CONTACT_SOLREF_STEPS` steps), so a cable resting on another does not sink into it;
 * **junctions**: a stiff site-to-site ``connect`` equality ``junction{j}`` between the two particles' sites
-  (:func:`junction_equality`), ``clamp=True`` refused (:data:`CLAMP_REFUSAL`); the geoms near a junction (within
+  (:func:`junction_equality`). ``clamp=True``: where the cable is segment bodies (``joints``, ``composite``) a
+  ``weld`` of the two segment bodies at the point instead, holding their start pose to each other (the frames'
+  relative turn); for point masses (``springs``, ``flexrod``) the connect and a tendon equality that holds the
+  distance between the two particles' inward neighbours, so the angle between the tangents, at its start value.
+  The references are the start's, whatever pose the model compiles in (:func:`_hold_start`). The geoms near a
+  junction (within
   :meth:`~mjcable.scene.CableSpec.overlapping_neighbours` + 1 particles of it, on every cable that meets there) never
   collide, as neighbouring segments don't;
 * **the start**: where a cable's spec has a start keyframe (a stiff ``joints`` chain compiles straight), the keyframe
@@ -37,12 +42,10 @@ from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 
-__all__ = ["assemble", "prefix", "junction_equality", "FIRST_CABLE_BIT", "MAX_CABLES", "CLAMP_REFUSAL"]
+__all__ = ["assemble", "prefix", "junction_equality", "particle_name", "pin_name", "inward", "FIRST_CABLE_BIT", "MAX_CABLES"]
 
 FIRST_CABLE_BIT = 2  # cable c's geoms carry contact bit 2 + c (bits 0 and 1: obstacles and every cable geom)
 MAX_CABLES = 30  # contype is a 32-bit int: the bits left for the cables
-CLAMP_REFUSAL = ("a clamped junction (Junction(..., clamp=True)) is not supported by the native models yet: their "
-                 "junctions are connect equalities (ball joints); use clamp=False")
 _SAME = 1e-9  # relative: viscosities this close are one
 _OPTIONS = ("timestep", "gravity", "integrator", "cone", "impratio", "viscosity", "jacobian")
 
@@ -52,8 +55,41 @@ def prefix(scene: Scene, c: int) -> str:
     return "" if len(scene.cables) == 1 else f"c{c}_"
 
 
-def junction_equality(j: int) -> str:
-    return f"junction{j}"
+def junction_equality(j: int, clamp: bool = False) -> str:
+    """The equality of junction ``j``: ``junction{j}`` (a connect, or a clamp's weld), and ``junction{j}_clamp``
+    (a clamp's tendon equality, in models without frames)."""
+    return f"junction{j}_clamp" if clamp else f"junction{j}"
+
+
+def inward(scene: Scene, i: int) -> int:
+    """The global particle next to global particle ``i`` towards its cable's inside (a clamp's neighbour)."""
+    c = scene.cable_of(i)
+    local = i - scene.cable_slices[c].start
+    return i + 1 if local < scene.cables[c].n_segments else i - 1
+
+
+def _hold_start(spec: mujoco.MjSpec, clamps: list) -> None:
+    """Set the clamps' equalities to hold the start (their references are otherwise the compiled pose, ``qpos0``,
+    which a stiff ``joints`` chain or ``flexrod`` takes straight): a weld's anchor (the junction's point, site
+    ``anchor``) in each body's frame and the second body's turn in the first's; a tendon equality's offset from the
+    tendon's ``qpos0`` length."""
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    world.reset_to_start(m, d)
+    mujoco.mj_forward(m, d)
+    for equality, anchor in clamps:
+        if anchor is None:
+            tendon = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, equality.name1)
+            equality.data[:5] = [d.ten_length[tendon] - m.tendon_length0[tendon], 0.0, 0.0, 0.0, 0.0]
+            continue
+        b1, b2 = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name) for name in (equality.name1, equality.name2))
+        r1, r2 = d.xmat[b1].reshape(3, 3), d.xmat[b2].reshape(3, 3)
+        relative = np.empty(4)
+        mujoco.mju_mulQuat(relative, d.xquat[b1] * [1.0, -1.0, -1.0, -1.0], d.xquat[b2])
+        point = d.site_xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, anchor)]
+        # MuJoCo holds x₁ + R₁ relpos on x₂ + R₂ anchor: both are the point, in either body
+        equality.data[:11] = np.concatenate([r2.T @ (point - d.xpos[b2]), r1.T @ (point - d.xpos[b1]), relative,
+                                             [1.0]])
 
 
 def local_pin(scene: Scene, k: int) -> int:
@@ -78,7 +114,7 @@ def check(scene: Scene, model: str) -> None:
     """What a scene of several cables or junctions asks that the native models can't do.
 
     Raises:
-      ValueError: more than :data:`MAX_CABLES` cables, a body pin on a scene of several, or a clamped junction."""
+      ValueError: more than :data:`MAX_CABLES` cables, or a body pin on a scene of several."""
     if len(scene.cables) > MAX_CABLES:
         raise ValueError(f"{model}: a scene of at most {MAX_CABLES} cables (one contact bit each), got "
                          f"{len(scene.cables)}")
@@ -87,15 +123,13 @@ def check(scene: Scene, model: str) -> None:
         if body:
             raise ValueError(f"{model}: pins[{body[0]}] is a body pin in a scene of several cables, which the native "
                              f"models don't build yet; pin the cable with a gripper or world pin, or use one cable")
-    clamped = [j for j, junction in enumerate(scene.junctions) if junction.clamp]
-    if clamped:
-        raise ValueError(f"{model}: junctions[{clamped[0]}]: {CLAMP_REFUSAL}")
 
 
 def assemble(scene: Scene, generate: Callable[..., mujoco.MjSpec], model: str, *, timestep: float,
-             self_collision: bool = False) -> mujoco.MjSpec:
+             self_collision: bool = False, frames: bool = False) -> mujoco.MjSpec:
     """The spec of ``scene`` (several cables, or junctions) with each cable built by ``generate(one-cable scene, *,
-    timestep, self_collision)`` (see the module docstring)."""
+    timestep, self_collision)`` (see the module docstring); ``frames``: the cable is segment bodies (clamped
+    junctions are welds)."""
     check(scene, model)
     if len(scene.cables) == 1:
         spec = generate(scene.cable_scene(0), timestep=timestep, self_collision=self_collision)
@@ -115,7 +149,7 @@ def assemble(scene: Scene, generate: Callable[..., mujoco.MjSpec], model: str, *
         if any(has_key for has_key, *_ in starts):
             _start_key(spec, scene, starts)
         world.stiffen_obstacle_contacts(spec, scene, timestep)
-    _junctions(spec, scene, timestep)
+    _junctions(spec, scene, timestep, frames)
     return snap.snap_spec(spec)
 
 
@@ -186,13 +220,30 @@ def _options(spec: mujoco.MjSpec, scene: Scene, options: list, model: str) -> No
     spec.option.jacobian = mujoco.mjtJacobian.mjJAC_AUTO
 
 
-def _junctions(spec: mujoco.MjSpec, scene: Scene, timestep: float) -> None:
-    """Each junction's connect equality, and no contacts between the bodies near the particles that junctions join
-    into one point."""
-    for j in range(len(scene.junctions)):
+def _junctions(spec: mujoco.MjSpec, scene: Scene, timestep: float, frames: bool) -> None:
+    """Each junction's equalities (:func:`junction_equality`), and no contacts between the bodies near the particles
+    that junctions join into one point."""
+    clamps = []
+    for j, junction in enumerate(scene.junctions):
         a, b = scene.junction_particles(j)
-        world.add_connect(spec, junction_equality(j), particle_name(scene, b), particle_name(scene, a),
-                          timestep=timestep)
+        site_a, site_b = particle_name(scene, a), particle_name(scene, b)
+        if junction.clamp and frames:  # the two segment bodies at the point keep their start pose to each other
+            weld = spec.add_equality(name=junction_equality(j), type=mujoco.mjtEq.mjEQ_WELD,
+                                     objtype=mujoco.mjtObj.mjOBJ_BODY, name1=spec.site(site_b).parent.name,
+                                     name2=spec.site(site_a).parent.name, solref=world.pin_solref(timestep),
+                                     solimp=world.PIN_SOLIMP)
+            clamps.append((weld, site_a))
+            continue
+        world.add_connect(spec, junction_equality(j), site_b, site_a, timestep=timestep)
+        if junction.clamp:  # the neighbours' distance, so the angle between the two tangents, at its start value
+            tendon = spec.add_tendon(name=f"{junction_equality(j)}_clamp", rgba=[0.0, 0.0, 0.0, 0.0])
+            for i in (a, b):
+                tendon.wrap_site(particle_name(scene, inward(scene, i)))
+            clamps.append((spec.add_equality(name=junction_equality(j, clamp=True), type=mujoco.mjtEq.mjEQ_TENDON,
+                                             name1=tendon.name, solref=world.pin_solref(timestep),
+                                             solimp=world.PIN_SOLIMP), None))
+    if clamps:
+        _hold_start(spec, clamps)
     excluded = set()
     for group in _points(scene):
         near = []  # per joined particle: the bodies holding the particles within reach of it on its cable

@@ -41,6 +41,7 @@ __all__ = [
     "add_anchor",
     "exclude_overlapping",
     "add_connect",
+    "pin_solref",
     "add_clamp_anchor",
     "pinned_segments",
     "particle_site",
@@ -394,8 +395,13 @@ def add_roll_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position: np.ndar
     return name
 
 
+def pin_solref(timestep: float) -> list:
+    """The stiff equalities' ``solref``: a time constant of ``_PIN_SOLREF_STEPS`` physics steps, critically damped."""
+    return [_PIN_SOLREF_STEPS * timestep, 1.0]
+
+
 def add_connect(spec: mujoco.MjSpec, name: str, site1: str, site2: str, *, timestep: float,
                 solimp: tuple = PIN_SOLIMP) -> None:
     """A stiff site-to-site ``connect`` equality (independent of qpos0, so models may compile straight)."""
     spec.add_equality(name=name, type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_SITE,
-                      name1=site1, name2=site2, solref=[_PIN_SOLREF_STEPS * timestep, 1.0], solimp=solimp)
+                      name1=site1, name2=site2, solref=pin_solref(timestep), solimp=solimp)
