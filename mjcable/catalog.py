@@ -284,7 +284,8 @@ for _module, _settings, _summary, _missing in (
         _UNAVAILABLE[_module.__name__.rsplit(".", 1)[1]] = _missing
         continue
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="native", settings=_settings,
-                        build=spec_builder(_module.build, frames=_module in (joints, composite)), backend=NativeBackend, summary=_summary,
+                        build=spec_builder(_module.build, frames=_module in (joints, composite)),
+                        backend=NativeBackend, summary=_summary,
                         ignores=getattr(_module, "IGNORES", {}), check=getattr(_module, "precheck", None),
                         twist=_module is composite, frames=_module in (joints, composite),
                         several_cables=True, junctions=True))

@@ -200,3 +200,16 @@ def test_a_model_without_junctions_refuses_them_up_front(model):
     scene = mjcable.Scene(ring, junctions=(mjcable.Junction((0, 0), (0, -1)),), name="ring")
     with pytest.raises(ValueError, match=rf"^{model}: junctions \(1\) in scene 'ring': model '{model}' "):
         mjcable.Simulator(scene, model)
+
+
+def test_cable_scene_is_one_cable_with_its_own_pins():
+    pins = (mjcable.Pin(0), mjcable.Pin(-1, "gripper", cable=1), mjcable.Pin(2, cable=1))
+    scene = mjcable.Scene((A, B, C), pins, obstacles=(mjcable.Floor(pos=(0, 0, 0.5)),),
+                          junctions=(mjcable.Junction((0, -1), (1, 0)),))
+    one = scene.cable_scene(1)
+    assert one.cable is B and one.junctions == () and one.obstacles == scene.obstacles
+    assert one.pins == (mjcable.Pin(-1, "gripper"), mjcable.Pin(2))
+    assert scene.cable_scene(2).pins == () and scene.cable_scene(0).pins == (mjcable.Pin(0),)
+    alone = mjcable.Scene(A, (mjcable.Pin(0),))
+    assert alone.cable_scene(0) is alone
+    assert [scene.cable_of(i) for i in (0, 10, 11, 17, 18, 26)] == [0, 0, 1, 1, 2, 2]

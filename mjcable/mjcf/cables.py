@@ -17,9 +17,8 @@ spec of its own, attached to the scene's world (:func:`mjcable.mjcf.world.new_sp
   relative turn); for point masses (``springs``, ``flexrod``) the connect and a tendon equality that holds the
   distance between the two particles' inward neighbours, so the angle between the tangents, at its start value.
   The references are the start's, whatever pose the model compiles in (:func:`_hold_start`). The geoms near a
-  junction (within
-  :meth:`~mjcable.scene.CableSpec.overlapping_neighbours` + 1 particles of it, on every cable that meets there) never
-  collide, as neighbouring segments don't;
+  junction (within :meth:`~mjcable.scene.CableSpec.overlapping_neighbours` + 1 particles of it, on every cable that
+  meets there) never collide, as neighbouring segments don't;
 * **the start**: where a cable's spec has a start keyframe (a stiff ``joints`` chain compiles straight), the keyframe
   :data:`~mjcable.mjcf.world.START_KEY` of the whole model holds every cable's start pose, in attachment order.
 
@@ -42,7 +41,8 @@ from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 
-__all__ = ["assemble", "prefix", "junction_equality", "particle_name", "pin_name", "inward", "FIRST_CABLE_BIT", "MAX_CABLES"]
+__all__ = ["assemble", "check", "prefix", "junction_equality", "particle_name", "pin_name", "local_pin", "inward",
+           "FIRST_CABLE_BIT", "MAX_CABLES"]
 
 FIRST_CABLE_BIT = 2  # cable c's geoms carry contact bit 2 + c (bits 0 and 1: obstacles and every cable geom)
 MAX_CABLES = 30  # contype is a 32-bit int: the bits left for the cables
@@ -66,30 +66,6 @@ def inward(scene: Scene, i: int) -> int:
     c = scene.cable_of(i)
     local = i - scene.cable_slices[c].start
     return i + 1 if local < scene.cables[c].n_segments else i - 1
-
-
-def _hold_start(spec: mujoco.MjSpec, clamps: list) -> None:
-    """Set the clamps' equalities to hold the start (their references are otherwise the compiled pose, ``qpos0``,
-    which a stiff ``joints`` chain or ``flexrod`` takes straight): a weld's anchor (the junction's point, site
-    ``anchor``) in each body's frame and the second body's turn in the first's; a tendon equality's offset from the
-    tendon's ``qpos0`` length."""
-    m = spec.compile()
-    d = mujoco.MjData(m)
-    world.reset_to_start(m, d)
-    mujoco.mj_forward(m, d)
-    for equality, anchor in clamps:
-        if anchor is None:
-            tendon = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, equality.name1)
-            equality.data[:5] = [d.ten_length[tendon] - m.tendon_length0[tendon], 0.0, 0.0, 0.0, 0.0]
-            continue
-        b1, b2 = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name) for name in (equality.name1, equality.name2))
-        r1, r2 = d.xmat[b1].reshape(3, 3), d.xmat[b2].reshape(3, 3)
-        relative = np.empty(4)
-        mujoco.mju_mulQuat(relative, d.xquat[b1] * [1.0, -1.0, -1.0, -1.0], d.xquat[b2])
-        point = d.site_xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, anchor)]
-        # MuJoCo holds x₁ + R₁ relpos on x₂ + R₂ anchor: both are the point, in either body
-        equality.data[:11] = np.concatenate([r2.T @ (point - d.xpos[b2]), r1.T @ (point - d.xpos[b1]), relative,
-                                             [1.0]])
 
 
 def local_pin(scene: Scene, k: int) -> int:
@@ -260,6 +236,30 @@ def _junctions(spec: mujoco.MjSpec, scene: Scene, timestep: float, frames: bool)
                         if (b1, b2) not in excluded and (b2, b1) not in excluded:
                             excluded.add((b1, b2))
                             spec.add_exclude(bodyname1=b1, bodyname2=b2)
+
+
+def _hold_start(spec: mujoco.MjSpec, clamps: list) -> None:
+    """Set the clamps' equalities to hold the start (their references are otherwise the compiled pose, ``qpos0``,
+    which a stiff ``joints`` chain or ``flexrod`` takes straight): a weld's anchor (the junction's point, site
+    ``anchor``) in each body's frame and the second body's turn in the first's; a tendon equality's offset from the
+    tendon's ``qpos0`` length."""
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    world.reset_to_start(m, d)
+    mujoco.mj_forward(m, d)
+    for equality, anchor in clamps:
+        if anchor is None:
+            tendon = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, equality.name1)
+            equality.data[:5] = [d.ten_length[tendon] - m.tendon_length0[tendon], 0.0, 0.0, 0.0, 0.0]
+            continue
+        b1, b2 = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name) for name in (equality.name1, equality.name2))
+        r1, r2 = d.xmat[b1].reshape(3, 3), d.xmat[b2].reshape(3, 3)
+        relative = np.empty(4)
+        mujoco.mju_mulQuat(relative, d.xquat[b1] * [1.0, -1.0, -1.0, -1.0], d.xquat[b2])
+        point = d.site_xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, anchor)]
+        # MuJoCo holds x₁ + R₁ relpos on x₂ + R₂ anchor: both are the point, in either body
+        equality.data[:11] = np.concatenate([r2.T @ (point - d.xpos[b2]), r1.T @ (point - d.xpos[b1]), relative,
+                                             [1.0]])
 
 
 def _points(scene: Scene) -> list:
