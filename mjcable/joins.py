@@ -117,3 +117,21 @@ def _end(name: str, value) -> tuple:
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a (cable, index) pair of integers, got {value!r}") from None
     return (_validate.integer(f"{name}[0] (cable)", cable, low=0), _validate.integer(f"{name}[1] (index)", index))
+
+
+def points(pairs) -> tuple:
+    """The points that junctions joining the particle ``pairs`` (``(a, b)`` global indices) make: a tuple of sorted
+    tuples of the particles joined into each (union-find)."""
+    root = {}
+
+    def find(i):
+        while root.setdefault(i, i) != i:
+            i = root[i]
+        return i
+
+    for a, b in pairs:
+        root[find(a)] = find(b)
+    groups = {}
+    for i in sorted(root):
+        groups.setdefault(find(i), []).append(i)
+    return tuple(tuple(g) for g in groups.values())

@@ -178,9 +178,9 @@ class Simulator:
 
     @property
     def junction_forces(self) -> np.ndarray:
-        """``(len(scene.junctions), 3)`` force in newtons each junction exerts on its particle b (its second
-        ``(cable, index)``), world frame; −that on particle a. Native models report the junction's equality
-        constraint in the last constraint solve, like :attr:`pin_forces`."""
+        """``(len(scene.junctions), 3)`` force in newtons each junction exerts on its particle b (the second of its
+        pair; equal and opposite on a), world frame, averaged over the last step as :attr:`pin_forces`; zero rows
+        before the first step."""
         if not self.scene.junctions:
             return np.zeros((0, 3))
         return self._backend.junction_forces()

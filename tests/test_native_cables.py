@@ -7,7 +7,7 @@ import pytest
 from scipy import optimize
 
 import mjcable
-from mjcable import catalog, reference_harness
+from mjcable import catalog, geometry, reference_harness
 from mjcable.errors import PhysicsWarning
 
 NATIVE = catalog.names("native")
@@ -15,26 +15,19 @@ G = 9.81
 
 
 def polyline_distance(a, b):
-    """The smallest distance in metres between the polylines ``a`` (n, 3) and ``b`` (m, 3): the closest points of
-    every pair of their segments (clamped to the segments)."""
-    p, u = a[:-1, None, :], (a[1:] - a[:-1])[:, None, :]
-    q, v = b[None, :-1, :], (b[1:] - b[:-1])[None, :, :]
-    w = p - q
-    uu, vv, uv = (u * u).sum(-1), (v * v).sum(-1), (u * v).sum(-1)
-    uw, vw = (u * w).sum(-1), (v * w).sum(-1)
-    den = uu * vv - uv * uv
-    s = np.clip(np.where(den > 1e-30, (uv * vw - vv * uw) / np.where(den > 1e-30, den, 1.0), 0.0), 0.0, 1.0)
-    t = np.clip((uv * s + vw) / vv, 0.0, 1.0)
-    s = np.clip((uv * t - uw) / uu, 0.0, 1.0)
-    d = w + s[..., None] * u - t[..., None] * v
-    return float(np.sqrt((d * d).sum(-1)).min())
+    """The smallest distance in metres between the polylines ``a`` and ``b`` (their closest segments)."""
+    return float(geometry.segment_distances(a, b).min())
 
 
-def test_polyline_distance_of_two_crossing_lines():
+def test_segment_distances_of_crossing_and_parallel_lines():
     a = np.array([[-1.0, 0, 0], [0, 0, 0], [1, 0, 0]])
     b = np.array([[0.25, -1, 0.3], [0.25, 1, 0.3]])
-    assert polyline_distance(a, b) == pytest.approx(0.3, abs=1e-15)
+    np.testing.assert_allclose(geometry.segment_distances(a, b), [[np.hypot(0.25, 0.3)], [0.3]], atol=1e-15)
     assert polyline_distance(a, b + [0, 0, -0.3]) == pytest.approx(0.0, abs=1e-15)
+    parallel = np.array([[2.0, 0.1, 0], [3.0, 0.1, 0]])  # beyond a's end: from (1, 0, 0) to (2, 0.1, 0)
+    np.testing.assert_allclose(geometry.segment_distances(a, parallel), [[np.hypot(2, 0.1)], [np.hypot(1, 0.1)]])
+    long = np.c_[np.linspace(0, 1, 600), np.zeros(600), np.zeros(600)]  # more segments than a block
+    assert geometry.segment_distances(long, b).shape == (599, 1)
 
 
 # -- the Y-harness --------------------------------------------------------------------------------------------------
@@ -179,7 +172,8 @@ def test_cables_of_different_drag_share_one_viscosity_with_a_warning():
         mjcable.Simulator(mjcable.Scene((a, b), (mjcable.Pin(0), mjcable.Pin(0, cable=1))), "joints")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        mjcable.Simulator(mjcable.Scene((a, a)), "joints")  # the same drag: no warning
+        same = mjcable.CableSpec([[0, 0.5, 1.0], [0.5, 0.5, 1.0]], 10, 0.005, 0.05, damping=1.0)
+        mjcable.Simulator(mjcable.Scene((a, same)), "joints")  # the same drag: no warning
 
 
 def _tangent_angles(scene, x):

@@ -140,7 +140,7 @@ def _own(sub: mujoco.MjSpec, c: int, scene: Scene, timestep: float, self_collisi
         material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = ""
     sub.material("cable").rgba = list(world.CABLE_COLOURS[c % len(world.CABLE_COLOURS)])
     own = 1 << (FIRST_CABLE_BIT + c)
-    joined = {scene.cable_of(i) for group in _points(scene) if c in {scene.cable_of(i) for i in group}
+    joined = {scene.cable_of(i) for group in scene.junction_points() if c in {scene.cable_of(i) for i in group}
               for i in group} | {c}
     for element in [*sub.geoms, *sub.flexes]:  # the capsules or spheres, or the flex (flexrod)
         if element.contype & world.CABLE_CONTYPE:
@@ -221,7 +221,7 @@ def _junctions(spec: mujoco.MjSpec, scene: Scene, timestep: float, frames: bool)
     if clamps:
         _hold_start(spec, clamps)
     excluded = set()
-    for group in _points(scene):
+    for group in scene.junction_points():
         near = []  # per joined particle: the bodies holding the particles within reach of it on its cable
         for i in group:
             c = scene.cable_of(i)
@@ -260,21 +260,3 @@ def _hold_start(spec: mujoco.MjSpec, clamps: list) -> None:
         # MuJoCo holds x₁ + R₁ relpos on x₂ + R₂ anchor: both are the point, in either body
         equality.data[:11] = np.concatenate([r2.T @ (point - d.xpos[b2]), r1.T @ (point - d.xpos[b1]), relative,
                                              [1.0]])
-
-
-def _points(scene: Scene) -> list:
-    """The particles that junctions join into one point: lists of global particle indices (union-find)."""
-    root = {}
-
-    def find(i):
-        while root.setdefault(i, i) != i:
-            i = root[i]
-        return i
-
-    for j in range(len(scene.junctions)):
-        a, b = scene.junction_particles(j)
-        root[find(a)] = find(b)
-    groups = {}
-    for i in list(root):
-        groups.setdefault(find(i), []).append(i)
-    return [sorted(g) for g in groups.values()]
