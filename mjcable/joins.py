@@ -8,9 +8,10 @@ in range, the two particles of a junction starting at one point). Re-exported by
 from __future__ import annotations
 
 import dataclasses
-from typing import Optional, Tuple
+from typing import Optional
 
 from mjcable import _validate
+from mjcable._validate import Vec3, set_field as _set
 
 __all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE"]
 
@@ -20,11 +21,6 @@ BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its pa
 # the junction would pull them together on the first step
 JUNCTION_TOLERANCE = 1e-6
 
-Vec3 = Tuple[float, float, float]
-
-
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,11 +7,12 @@ Frozen dataclasses in SI units, validated on construction; re-exported by :mod:`
 from __future__ import annotations
 
 import dataclasses
-from typing import ClassVar, Optional, Tuple
+from typing import ClassVar, Optional
 
 import numpy as np
 
 from mjcable import _validate, geometry
+from mjcable._validate import Vec3, set_field as _set
 
 __all__ = ["Obstacle", "Floor", "Box", "Cylinder", "Capsule", "Sphere", "START_CONTACT_TOLERANCE", "check_start_clear"]
 
@@ -20,11 +21,6 @@ __all__ = ["Obstacle", "Floor", "Box", "Cylinder", "Capsule", "Sphere", "START_C
 # 1000 m/s on the first step.
 START_CONTACT_TOLERANCE = 1e-6
 
-Vec3 = Tuple[float, float, float]
-
-
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
 
 
 @dataclasses.dataclass(frozen=True)

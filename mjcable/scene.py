@@ -21,6 +21,7 @@ from typing import Optional
 import numpy as np
 
 from mjcable import _validate, geometry, joins, spline
+from mjcable._validate import set_field as _set
 from mjcable import obstacles as obstacles_
 from mjcable.joins import BODY_PIN_TOLERANCE, JUNCTION_TOLERANCE, PIN_KINDS, Junction, Pin
 from mjcable.obstacles import START_CONTACT_TOLERANCE, Box, Capsule, Cylinder, Floor, Obstacle, Sphere
@@ -60,10 +61,6 @@ BODY_PIN_REACH = 2
 # a typo such as 10**9 allocates tens of GB before anything is built.
 MAX_SEGMENTS = 100_000
 _ROUND_OFF = 1e-9  # relative: lengths equal to this are equal
-
-
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
 
 
 @dataclasses.dataclass(frozen=True)
