@@ -55,8 +55,9 @@ class Trajectory:
 
     Attributes:
       times: ``(k,)`` simulated time in seconds of each row.
-      positions: ``(k, n_segments + 1, 3)`` particle positions in metres.
-      velocities: ``(k, n_segments + 1, 3)`` particle velocities in m/s.
+      positions: ``(k, N, 3)`` particle positions in metres, N = ``scene.n_particles`` (``n_segments + 1`` for one
+        cable; several cables in cable order, cut with ``scene.cable_slices``).
+      velocities: ``(k, N, 3)`` particle velocities in m/s.
     """
 
     times: np.ndarray
@@ -104,7 +105,7 @@ class Simulator:
         self.settings = catalog.make_settings(model, **settings)
         catalog.check_substep(self.dt, self.settings)
         catalog.check_scene(scene, model)
-        far = float(np.max(np.abs(scene.cable.particles)))
+        far = float(np.max(np.abs(scene.particles)))
         if far > MAX_DISTANCE:
             raise ValueError(f"scene: the cable starts {far:.6g} m from the origin, beyond the {MAX_DISTANCE:g} m past "
                              "which a particle counts as run off (mjcable.simulator.MAX_DISTANCE); place the scene "
@@ -121,7 +122,7 @@ class Simulator:
         if not isinstance(backend, Backend):  # pragma: no cover - a catalogue entry's bug
             raise TypeError(f"model {model!r}'s backend {type(backend).__name__} does not implement Backend")
         self._backend: Backend = backend
-        n = scene.cable.n_particles
+        n = scene.n_particles
         self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
         self._step_seconds = None  # wall seconds per step of the last call of the backend's run (None: none yet)
         self._warned = set()  # the checks a PhysicsWarning was given for
@@ -149,17 +150,18 @@ class Simulator:
 
     @property
     def positions(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` centreline particles in world coordinates (metres), from the first control point."""
+        """``(scene.n_particles, 3)`` centreline particles in world coordinates (metres), from the first control point;
+        several cables in cable order (``scene.cable_slices`` cuts them)."""
         return self._positions.copy()
 
     @property
     def velocities(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` particle velocities in m/s, from the model's own state."""
+        """``(scene.n_particles, 3)`` particle velocities in m/s, from the model's own state (cable order)."""
         return self._backend.velocities()
 
     @property
     def particle_masses(self) -> np.ndarray:
-        """``(n_segments + 1,)`` lumped particle masses in kg, point masses added with :meth:`add_point_mass`
+        """``(scene.n_particles,)`` lumped particle masses in kg, point masses added with :meth:`add_point_mass`
         included (capsule chains: each segment's mass split between its two particles)."""
         return self._backend.particle_masses()
 
@@ -174,6 +176,15 @@ class Simulator:
         same quantity.
         """
         return self._backend.pin_forces()
+
+    @property
+    def junction_forces(self) -> np.ndarray:
+        """``(len(scene.junctions), 3)`` force in newtons each junction exerts on its particle b (the second of its
+        pair; equal and opposite on a), world frame, averaged over the last step as :attr:`pin_forces`; zero rows
+        before the first step."""
+        if not self.scene.junctions:
+            return np.zeros((0, 3))
+        return self._backend.junction_forces()
 
     @property
     def pin_torques(self) -> np.ndarray:
@@ -491,7 +502,7 @@ class Simulator:
         mass at the particle); particle solvers to the particle's lumped mass. A held particle stays held: its mass
         then enters its pin's force.
         """
-        n = self.scene.cable.n_particles
+        n = self.scene.n_particles
         index = _validate.integer("index", index, low=-n, high=n - 1) % n
         mass = _validate.number("mass", mass, low=0.0, low_open=True, unit="kg")
         self._backend.add_point_mass(index, mass)
