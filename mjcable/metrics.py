@@ -27,6 +27,8 @@ from mjcable.scene import GRAVITY, Box, Floor, Scene
 __all__ = [
     "segment_lengths",
     "max_strain",
+    "scene_strain",
+    "particle_radii",
     "rms_distance",
     "max_distance",
     "signed_distances",
@@ -97,13 +99,29 @@ def signed_distances(positions, scene: Scene) -> np.ndarray:
     return np.stack([_signed_distance(x, ob) for ob in scene.obstacles])
 
 
+def particle_radii(scene: Scene):
+    """m: the cables' radius (a float) where they share one, else ``(scene.n_particles,)`` each particle's cable's
+    radius, in cable order."""
+    radii = {c.radius for c in scene.cables}
+    if len(radii) == 1:
+        return radii.pop()
+    return np.concatenate([np.full(c.n_particles, c.radius) for c in scene.cables])
+
+
+def scene_strain(positions, scene: Scene) -> float:
+    """:func:`max_strain` over every cable of ``scene`` (``positions``: ``(scene.n_particles, 3)`` m, in cable
+    order), each against its own rest segment."""
+    x = _points("positions", positions)
+    return max(max_strain(x[part], cable.segment_length) for part, cable in zip(scene.cable_slices, scene.cables))
+
+
 def penetration(positions, scene: Scene) -> float:
-    """Deepest overlap in metres of a particle's sphere (the cable radius) with any obstacle: max(r − d, 0);
+    """Deepest overlap in metres of a particle's sphere (its cable's radius) with any obstacle: max(r − d, 0);
     0.0 for a scene without obstacles."""
     d = signed_distances(positions, scene)
     if d.size == 0:
         return 0.0
-    return float(max(scene.cable.radius - d.min(), 0.0))
+    return float(max(np.max(particle_radii(scene) - d.min(axis=0)), 0.0))
 
 
 def contact_penetration(mj_model: mujoco.MjModel, mj_data: mujoco.MjData) -> float:
@@ -140,13 +158,13 @@ def crossed(positions, scene: Scene, start_positions=None) -> np.ndarray:
     Args:
       positions: ``(n, 3)`` particles now, metres.
       scene: the scene (obstacles).
-      start_positions: ``(n, 3)`` particles at the start, metres (default: ``scene.cable.particles``).
+      start_positions: ``(n, 3)`` particles at the start, metres (default: ``scene.particles``).
     """
     x = _points("positions", positions)
     out = np.zeros(len(x), dtype=bool)
     if not scene.obstacles:
         return out
-    x0 = _points("start_positions", scene.cable.particles if start_positions is None else start_positions)
+    x0 = _points("start_positions", scene.particles if start_positions is None else start_positions)
     for ob in scene.obstacles:
         out |= _signed_distance(x, ob) < -_thickness(ob)
         if isinstance(ob, Box):
@@ -172,12 +190,12 @@ def tunneled(positions, scene: Scene, start_positions=None) -> np.ndarray:
 
     Args:
       positions: ``(n, 3)`` particles now, metres.
-      scene: the scene (obstacles, cable radius).
-      start_positions: ``(n, 3)`` particles at the start, metres (default: ``scene.cable.particles``).
+      scene: the scene (obstacles, cable radii).
+      start_positions: ``(n, 3)`` particles at the start, metres (default: ``scene.particles``).
     """
     x = _points("positions", positions)
     out = crossed(x, scene, start_positions)
-    depth = TUNNEL_DEPTH * scene.cable.radius
+    depth = TUNNEL_DEPTH * particle_radii(scene)
     for ob in scene.obstacles:
         out |= _signed_distance(x, ob) < -depth
     return out

@@ -4,10 +4,10 @@ import warnings
 
 import numpy as np
 import pytest
-from scipy import optimize
 
 import mjcable
 from mjcable import catalog, geometry, reference_harness
+from mjcable.bench import harness
 from mjcable.errors import PhysicsWarning
 
 NATIVE = catalog.names("native")
@@ -32,23 +32,8 @@ def test_segment_distances_of_crossing_and_parallel_lines():
 
 # -- the Y-harness --------------------------------------------------------------------------------------------------
 
-LEG = 0.6  # m, each leg
-JUNCTION = np.array([0.0, 0.0, 0.8])
-PINS = np.array([[-0.45, 0.0, 1.0], [0.3, 0.3, 0.95], [0.1, -0.4, 0.85]])  # at three heights
-
-
-def _leg(pin, sag, n):
-    return mjcable.CableSpec([pin, pin + 0.5 * (JUNCTION - pin) + [0.0, 0.0, -sag], JUNCTION], n, 0.004, 0.05,
-                             damping=3.0)
-
-
-def y_harness(n):
-    """Three legs of 0.6 m from their pins to one junction: each starts on a sagging curve of exactly that length
-    (to 1e-12 m) and runs pin (index 0) -> junction (index -1)."""
-    legs = [_leg(p, optimize.brentq(lambda s: _leg(p, s, n).length - LEG, 0.0, 0.5, xtol=1e-14), n) for p in PINS]
-    return mjcable.Scene(legs, [mjcable.Pin(0, cable=c) for c in range(3)],
-                         junctions=(mjcable.Junction((0, -1), (1, -1)), mjcable.Junction((0, -1), (2, -1))),
-                         name="y_harness")
+LEG, PINS = harness.LEG, harness.PINS
+y_harness = harness.y_harness_scene
 
 
 @pytest.mark.parametrize("model", NATIVE)

@@ -145,16 +145,15 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
     per_sample = max(1, int(round(SAMPLE_INTERVAL / dt)))
     per_call = per_sample * max(1, int(round(CALL_INTERVAL / (per_sample * dt))))
     masses = sim.particle_masses  # the scenario's setup may have added a load
-    l0 = scene.cable.segment_length
-    scale = float(masses.sum()) * 9.81 * max(scene.cable.length, 1e-3)
-    x0 = np.asarray(scene.cable.particles)
+    scale = float(masses.sum()) * 9.81 * max(sum(c.length for c in scene.cables), 1e-3)
+    x0 = np.asarray(scene.particles)
     drive_end = scenario.drive_end(params)
     limits = _limits(scenario, params, sim, scale)
 
     x = sim.positions
     previous = x
     e_ref = metrics.energy(x, None, dt, masses)  # a passive cable's kinetic + potential energy can only fall
-    max_strain = metrics.max_strain(x, l0)
+    max_strain = metrics.scene_strain(x, scene)
     max_pen = metrics.penetration(x, scene)
     times, com_x = [0.0], [float(np.dot(masses, x[:, 0]) / masses.sum())]
     energies = [sim.energy()] if scenario.needs_energy else []
@@ -190,7 +189,7 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
                 last = len(samples) - 1
                 for k, (taken, previous, x) in enumerate(samples):
                     at = start + taken
-                    strain = metrics.max_strain(x, l0)
+                    strain = metrics.scene_strain(x, scene)
                     max_strain = max(max_strain, strain)
                     max_pen = max(max_pen, metrics.penetration(x, scene))
                     if scenario.needs_com_x:
@@ -223,7 +222,7 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
         row["positions"] = x.tolist()
     if outcome != "stable":
         return
-    row["final_strain"] = metrics.max_strain(x, l0)
+    row["final_strain"] = metrics.scene_strain(x, scene)
     row["residual_speed"] = float(np.sqrt(np.max(np.sum((x - previous) ** 2, axis=1)))) / dt
     if scenario.evaluate is not None:
         history = {"times": np.array(times), "com_x": np.array(com_x), "energy": np.array(energies)}

@@ -44,6 +44,11 @@ on a rope over a pulley on a frictionless hinge in a user world: relative error 
 fitted over 0.15-0.6 s, against the heavy-rope Atwood machine with the pulley's inertia) and ``pulley_slip`` (the
 same run: |ω R_c / v_box − 1| over the window's second half, 0 without slip).
 
+And the harness family (:mod:`mjcable.bench.harness`): ``harness``, the Y-harness (three cables of 0.6 m from
+pins at three heights to one junction) damped to rest: largest distance in metres to the discrete reference
+(:func:`mjcable.reference_harness.y_harness`); ``n_segments`` per leg; models that cannot hold several cables
+with junctions are ``rejected``.
+
 And the twist family (scenes, paths and errors in :mod:`mjcable.bench.twist`), for the models with material frames
 (the others are ``rejected``): ``torsion`` (a clamped rod's end turned by π: relative error of the end torque
 against G·J φ / L) and ``arc`` (its end carried onto a quarter circle with the arc's tangent: largest distance in
@@ -72,7 +77,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
-from mjcable.bench import contact, pulley, twist
+from mjcable.bench import contact, harness, pulley, twist
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -455,6 +460,10 @@ SCENARIOS: Dict[str, Scenario] = {
         _incline("incline_slide", INCLINE_SLIDE_TILT, across=False),
         _incline("incline_stick_across", INCLINE_STICK_TILT, across=True),
         _incline("incline_slide_across", INCLINE_SLIDE_TILT, across=True),
+        Scenario("harness", "Y-harness: three 0.6 m cables from pins at three heights to one junction, damped to rest; "
+                 "largest distance to the discrete reference (several cables with junctions)",
+                 lambda n, p: harness.y_harness_scene(n), duration=6.0, quick_duration=6.0, error_kind="m",
+                 evaluate=harness.y_harness_error),
         *(Scenario(name, f"{what}; the Atwood machine over a pulley on a frictionless hinge (m₁ = 2 kg, m₂ = 1 kg, "
                    "I / R_c² = 0.46 kg, μ = 1), fitted over 0.15-0.6 s", lambda n, p: pulley.atwood_scene(n),
                    duration=pulley.DURATION + pulley.SAMPLE_EVERY, quick_duration=pulley.DURATION + pulley.SAMPLE_EVERY,
