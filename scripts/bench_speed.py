@@ -11,6 +11,8 @@ Prints a markdown table (the README's "Speed" section shows one) of:
 * the Cosserat rod against ``xpbd`` (both defaults): ``step(1.0)`` from the start on ``hang`` and ``table`` at 50
   and 200 segments, side by side (:func:`bench_cosserat`; the issue's bar is 2×), and ``cosserat``'s ``hang`` at
   400 and 1600 segments (linear: 4×);
+* several cables: four ``table`` cables of 50 segments side by side against one, ``xpbd`` defaults
+  (:func:`bench_cables.measure`; the issue's bar is 4.5×);
 * a resting cable: ``table`` at rest against ``hang``, 200 segments, ``xpbd`` defaults (:func:`bench_skip.measure`);
 * ``mjcable bench``'s runner against ``Simulator.step(T)`` on the same case (:func:`bench_runner.measure_bench_vs_step`);
 * every native model's ``step(1.0)`` on ``hang`` (their path is unchanged: this shows they keep their speed);
@@ -41,6 +43,7 @@ import numba
 import numpy as np
 
 import bench_batch  # scripts/bench_batch.py, beside this script
+import bench_cables  # scripts/bench_cables.py, beside this script
 import bench_env  # scripts/bench_env.py, beside this script
 import bench_length  # scripts/bench_length.py, beside this script
 import bench_runner  # scripts/bench_runner.py, beside this script
@@ -287,6 +290,9 @@ def main() -> None:
     print(f"| `table` at rest, 200 segments, xpbd (defaults): `step(1.0)` vs the same cable's `hang` `step(1.0)` "
           f"({rest['queries_per_step']:.2f} queries per step, {rest['contacts']} contacts) | "
           f"{rest['table_s'] * ms:.2f} ms | {rest['hang_s'] * ms:.2f} ms | {rest['ratio']:.2f}× |")
+    c = bench_cables.measure("xpbd", repeats=args.repeats)
+    print(f"| four `table` cables of 50 segments side by side vs one, xpbd (defaults): `step(1.0)` from the start "
+          f"| {c['several'] * ms:.2f} ms | {c['one'] * ms:.2f} ms | {c['ratio']:.2f}× |")
     r = bench_runner.measure_bench_vs_step(model="xpbd", repeats=args.repeats)
     print(f"| `mjcable bench`'s runner on the catenary (50 segments), xpbd (defaults): wall s per simulated s vs "
           f"`Simulator.step(T)` of the same case | {r['bench_wall_per_sim_s']:.4f} s/s | "
