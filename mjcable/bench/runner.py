@@ -72,7 +72,7 @@ def run_case(case: Case) -> dict:
     row["error_kind"] = scenario.error_kind
     params = dict(case.params)
     try:
-        _run(case, model, {**settings, **dict(case.settings)}, scenario, params, row)
+        _run(case, model, {**settings, **dict(scenario.settings), **dict(case.settings)}, scenario, params, row)
     except _TimeCap:
         row.update(outcome="diverged", reason=f"over its time cap of {case.time_cap:g} s wall time "
                                               f"(reached {row['sim_time']:.4g} s simulated)")
@@ -232,6 +232,10 @@ def _simulate(case: Case, scenario, params: dict, scene, sim, row: dict, deadlin
             row["error"] = float(scenario.evaluate(scene, x, history))
         except Exception as exc:  # noqa: BLE001 - a failed measurement is recorded, not raised
             row["reason"] = f"error measurement failed: {type(exc).__name__}: {exc}"
+    if scenario.verdict is not None:
+        found = scenario.verdict(scene, x)
+        if found is not None:
+            row.update(outcome=found[0], reason=found[1])
 
 
 def _sample_pair(sim, count: int, path: Optional[np.ndarray] = None, turns: Optional[np.ndarray] = None) -> list:

@@ -57,6 +57,10 @@ metres from the arc), ``greenhill`` (twisted until it buckles: relative error of
 pulled aside and let go: largest distance in metres from its start shape; models without curved rest shapes are
 ``rejected``).
 
+And the knot family (:mod:`mjcable.bench.knot`): ``knot``, a rope in a loose overhand knot pulled taut by grippers
+with self-collision on; error = its least self-distance over the run in radii, ``tunneled`` when below one radius
+or when the knot came undone. Its stress family varies the pull's ``speed``.
+
 Stress scenarios (:data:`STRESS_SCENARIOS`) vary one parameter each: ``stiffness`` (E·A on the drape), ``bending`` (E of a cantilever), ``segments``
 (n_segments on the table drop), ``speed`` (a gripper yanks the cable's end), ``load`` (a heavy mass at the end of
 a light cable hanging from one pin) and ``plate`` (a cable dropped from the height at which it hits a 4 mm plate at
@@ -77,7 +81,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
-from mjcable.bench import contact, harness, pulley, twist
+from mjcable.bench import contact, harness, knot, pulley, twist
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -173,6 +177,9 @@ class Scenario:
       quick_params: ``(name, value)`` scenario parameters of its ``--quick`` cases (e.g. fewer bisection steps).
       quick_time_cap: wall-clock seconds its ``--quick`` cases may take (``None``: the sweep's cap), for a run
         that measures with more simulations than the one it times (the capstan's bisection).
+      settings: ``(name, value)`` model settings the scenario needs (e.g. ``self_collision``), under the case's own.
+      verdict: optional ``(scene, final_positions) → (outcome, reason) or None``: a stable run's outcome by the
+        scenario's own rule (a knot that came undone is ``tunneled``), after its error is measured.
     """
 
     name: str
@@ -195,6 +202,8 @@ class Scenario:
     in_quick: bool = True
     quick_params: tuple = ()
     quick_time_cap: Optional[float] = None
+    settings: tuple = ()
+    verdict: Optional[Callable] = None
 
 
 # ------------------------------------------------------------------------------------------------------ scenes
@@ -496,6 +505,12 @@ SCENARIOS: Dict[str, Scenario] = {
                  lambda n, p: twist.curved_scene(n), duration=4.0, quick_duration=4.0, error_kind="m",
                  evaluate=twist.curved_error, drive=twist.curved_drive, drive_end=lambda p: twist.PULL_TIME,
                  passive=False),
+        Scenario("knot", "rope in a loose overhand knot, self-collision on, its ends pulled apart by grippers until "
+                 "taut (2 N); least distance between two segments over the run, in radii (tunneled: below 1, or the "
+                 "knot undone)",
+                 lambda n, p: knot.knot_scene(n), duration=0.0, quick_duration=0.0, error_kind="r",
+                 evaluate=knot.knot_error, drive=knot.knot_drive, drive_end=lambda p: knot.DURATION, passive=False,
+                 setup=knot.knot_setup, settings=(("self_collision", True),), verdict=knot.knot_verdict),
     )
 }
 

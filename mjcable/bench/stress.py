@@ -1,6 +1,7 @@
 """``mjcable stress``: where each model breaks. Sweeps axial stiffness (to 1e9 N), dt (to 50 ms), n_segments (to
-500), a gripper's speed (to 20 m/s), a heavy end load on a light cable and a cable falling onto a 4 mm plate at up
-to 10 m/s (dt to 10 ms); every run gets an ``outcome`` (``stable``, ``diverged``, ``tunneled``; see
+500), a gripper's speed (to 20 m/s), a heavy end load on a light cable, a cable falling onto a 4 mm plate at up
+to 10 m/s (dt to 10 ms) and a knot pulled taut at up to 2 m/s per gripper (dt to 10 ms; ``tunneled``: a segment
+through another or the knot undone); every run gets an ``outcome`` (``stable``, ``diverged``, ``tunneled``; see
 :mod:`mjcable.bench.outcome`).
 
 Outputs in ``--out`` (default ``stress_out``): ``stress.csv`` (one row per run, resumable),
@@ -31,6 +32,7 @@ FAMILIES = {
     "speed": ("speed", (1.0, 5.0, 20.0)),
     "load": ("load", (1.0, 10.0, 100.0, 1000.0)),
     "plate": ("speed", (2.0, 5.0, 10.0)),
+    "knot": ("speed", (0.1, 0.5, 2.0)),
 }
 QUICK_FAMILIES = {
     "stiffness": (1e4, 1e9),
@@ -39,12 +41,14 @@ QUICK_FAMILIES = {
     "speed": (2.0, 20.0),
     "load": (1.0, 1000.0),
     "plate": (5.0, 10.0),
+    "knot": (0.1, 2.0),
 }
 FULL_DTS = (0.001, 0.005, 0.02, 0.05)
 QUICK_DTS = (0.002, 0.05)
 # family → (full dts, quick dts) where a family has its own: the thin plate up to the 10 ms of issue 9
 FAMILY_DTS = {
     "plate": ((0.001, 0.002, 0.005, 0.01), (0.002, 0.01)),
+    "knot": ((0.001, 0.002, 0.005, 0.01), (0.002, 0.01)),
 }
 TIME_CAP_FULL = 120.0  # s wall time per run
 TIME_CAP_QUICK = 25.0
@@ -93,7 +97,8 @@ def run_stress(out: str, *, quick: bool = False, jobs: int = 1, scheduler=None,
           f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s); ran on "
           f"{sweep.describe_workers(jobs=jobs, scheduler=scheduler)}; this call took "
           f"{wall:.0f} s wall time. Families: stiffness (E·A in N, drape), segments (n_segments, table drop), "
-          "speed (gripper yank in m/s), load (end mass / cable mass, hanging cable).\n",
+          "speed (gripper yank in m/s), load (end mass / cable mass, hanging cable), plate (drop speed in m/s), knot "
+          "(pull speed in m/s).\n",
           plots.outcome_markdown(rows)]
     with atomic_write(os.path.join(out, "stress.md")) as f:
         f.write("\n".join(md))
