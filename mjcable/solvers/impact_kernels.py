@@ -39,7 +39,8 @@ import numpy as np
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, variable
 from mjcable.solvers.constraint_kernels import _bend_clamp_sweeps
-from mjcable.solvers.contact_kernels import contact_sweep, friction_sweep, self_contact_sweep
+from mjcable.solvers.contact_kernels import contact_sweep, friction_sweep
+from mjcable.solvers.self_contact_kernels import sweep_self_contacts
 from mjcable.solvers.kernels_layout import _TINY_LENGTH, BEND_NONE
 
 __all__ = ["struck", "held_chain_solve", "resolve_impact"]
@@ -130,7 +131,7 @@ def resolve_impact(S):
             _bend_clamp_sweeps(S, S.x, at_b, at_c, P.k_b, P.k_c, False)
         moved = max(contact_sweep(S), friction_sweep(S, variable(False)))
         if P.n_self:
-            self_contact_sweep(S)
+            sweep_self_contacts(S)
         if moved <= P.impact_tol:
             break
     return taken

@@ -64,6 +64,7 @@ from mjcable.solvers.kernels_layout import (
 )
 from mjcable.solvers.monitor_kernels import contact_depth, step_check
 from mjcable.solvers.query_kernels import flatten_contacts, query_holds, query_obstacles, self_contacts
+from mjcable.solvers.self_contact_kernels import sweep_self_contacts
 
 __all__ = ["SolverState", "run_steps", "run_phase", "substep", "begin_substep", "iterate", "end_substep",
            "is_plain", "plain_substep", "step_margin", "touches_obstacles", "xpbd_multiplier", "stretch_step",
@@ -207,7 +208,7 @@ def iterate(S, last):
         finished = last and not impact and S.impulse_force.shape[0] == 0
         friction_sweep(S, finished)
     if n_self:
-        self_contact_sweep(S)
+        sweep_self_contacts(S)
     if impact:
         resolve_impact(S)
     return finished
