@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 import mjcable
+from mjcable import metrics
 from mjcable.bench import contact
 from mjcable.bench.case import Case
 from mjcable.bench.runner import run_case
-from mjcable.solvers import contact_kernels, kernels_layout
+from mjcable.solvers import contact_kernels, kernels_layout, self_contact_kernels
 
 G = 9.81
 CAPSTAN_MU = 0.3  # the issue's rope over a peg: long/short < e^{0.3 π} ≈ 2.57 for a light rope
@@ -253,6 +254,40 @@ def test_a_chord_on_a_peg_is_held_at_its_closest_point_whatever_fraction_the_que
     gap = np.hypot(chord[:, 0], chord[:, 2]) - (peg + RADIUS)
     assert gap.min() > -1e-6, gap.min()
     assert a["con_s"][0] == pytest.approx(0.5, abs=1e-9)
+
+
+@pytest.mark.parametrize("relinearised, side", [(True, 1.0), (True, -1.0), (False, 1.0)],
+                         ids=["above", "crossed below", "above, at the query's points"])
+def test_a_self_contact_is_held_at_the_pairs_closest_points_not_the_querys(relinearised, side):
+    """A segment across a tilted one (slope 0.1), 100 µm too close to it where they cross (x = 6 cm), with the
+    query's contact at both middles and normal +z (taken before the strands slid): one sweep after
+    :func:`self_contact_kernels.relinearise` puts them the contact distance apart at their closest points (within
+    1 µm); when the upper one has already crossed below, the first sweep pushes it back above along the query's
+    normal (its side) and the second, relinearised there, to the contact distance. At the query's stale points it
+    stays 100 µm deep."""
+    r, depth = RADIUS, 1e-4
+    x = np.array([[-0.1, 0.0, -0.01], [0.1, 0.0, 0.01], [0.06, -0.1, 0.0], [0.06, 0.1, 0.0]])
+    normal = np.array([-0.1, 0.0, 1.0]) / math.hypot(0.1, 1.0)  # the tilted segment's normal in the xz plane
+    x[2:] += np.array([0.0, 0.0, 0.006]) + side * (2 * r - depth) * normal
+    S, a = _state(x=x, x0=x.copy(), w=np.ones(4), react=np.zeros_like(x),
+                  self_pair=np.array([[2, 0]], dtype=np.int64), self_st=np.array([[0.5, 0.5]]),
+                  self_normal=np.array([[0.0, 0.0, 1.0]]), self_lam_n=np.zeros(1), self_lam_t=np.zeros(1))
+    par = a["par"][0]
+    par["radius"], par["n_self"], par["h"] = r, 1, 0.0005
+    if relinearised:  # two iterations' sweeps
+        self_contact_kernels.sweep_self_contacts(S)
+        a["self_lam_n"][:] = a["self_lam_t"][:] = 0.0
+        self_contact_kernels.sweep_self_contacts(S)
+    else:
+        contact_kernels.self_contact_sweep(S)
+    y = a["x"]
+    d = metrics.segment_distances(y[[2]], y[[3]], y[[0]], y[[1]])[0]
+    above = np.dot(0.5 * (y[2] + y[3]) - (0.2 * y[0] + 0.8 * y[1]), normal) > 0  # over the crossing point
+    if relinearised:
+        assert d == pytest.approx(2 * r, abs=1e-6) and above
+        assert a["self_st"][0] == pytest.approx([0.5, 0.8], abs=0.01)  # (the crossed pair came back along +z)
+    else:
+        assert d == pytest.approx(2 * r - depth, abs=1e-5) and above
 
 
 @pytest.mark.parametrize("self_contact", [True, False], ids=["on itself", "on a table"])
