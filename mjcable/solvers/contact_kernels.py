@@ -555,8 +555,8 @@ def _move_pair(x, w, react, i, j, weights, g, v):
 @_jit
 def self_contact_sweep(S):
     """The state's self contacts (``par.n_self`` of them) of non-adjacent segments (i, i+1) and (j, j+1)
-    (``self_pair``) at fractions s, t (``self_st``), linearised once per step with the unit normal n from segment j
-    to segment i (``self_normal``): C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four particles moving with
+    (``self_pair``) at fractions s, t (``self_st``), normal n from segment j to segment i (``self_normal``; renewed
+    before each sweep: :mod:`~mjcable.solvers.self_contact_kernels`): C = n·(pᵢ − pⱼ) − 2r ≥ 0, the four moving with
     Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb friction μ
     (``par.mu_self``) on the relative tangential slip of the two axis points since the substep began ([M20]'s static
     friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``, ``self_lam_t``."""

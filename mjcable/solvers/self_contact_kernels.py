@@ -5,11 +5,13 @@ The step's query (:func:`mjcable.solvers.query_kernels.self_contacts`) finds the
 within the step and linearises each at its closest points then: fractions (s, t) and the unit normal n from segment
 j to segment i. Strands that slide along each other within the step (a knot pulled taut: its loop runs round the
 strand through it at metres per second while it tightens) leave those points behind, and a constraint kept at the
-query's points lets the segments meet elsewhere: a rope pulled through its own overhand knot at 16 substeps came
-within 0.57 r of itself (``docs/measurements.md``, the knot). :func:`relinearise` moves each pair's points to its
-closest points now, before every sweep, keeping the query's side: the normal follows the pair's closest direction
-while that points to the side the query saw (d·n > 0), and stays the query's when the pair has crossed over, so that
-the sweep pushes it back rather than through.
+query's points lets the segments meet elsewhere (``docs/measurements.md``, the knot). :func:`relinearise` moves each
+pair's points to its closest points now, before every sweep, keeping the query's side: the normal follows the pair's
+closest direction while that points to the side the query saw (d·n > 0), and stays the query's when the pair has
+crossed over, so that the sweep pushes it back rather than through.
+
+References:
+  [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
 """
 
 from __future__ import annotations
