@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from mjcable import _validate, metrics, spline
+from mjcable import _validate, geometry, spline
 
 __all__ = ["OverhandKnot", "overhand_knot", "knot_determinant", "crossings"]
 
@@ -141,10 +141,8 @@ def _unit_clearance() -> float:
                              _tail(loop[-1], tangent[-1], -normal, 6.0)])
     x = spline.CatmullRom(points).position(np.linspace(0.0, 1.0, _CHECK_POINTS))
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
-    i, j = np.triu_indices(len(x) - 1, k=2)
-    strands = arc[j] - arc[i + 1] > _STRAND_ARC
-    i, j = i[strands], j[strands]
-    return float(metrics.segment_distances(x[i], x[i + 1], x[j], x[j + 1]).min())
+    apart = arc[None, :-1] - arc[1:, None]  # along the curve from the end of segment i to the start of segment j
+    return float(geometry.segment_distances(x, x)[apart > _STRAND_ARC].min())
 
 
 def _closed(positions: np.ndarray) -> tuple:
@@ -173,7 +171,10 @@ def crossings(positions) -> np.ndarray:
     """The crossings of a cable's centreline (``(n, 3)`` metres) closed far away (see :func:`knot_determinant`), in
     one projection: ``(c, 4)`` rows (i, s, j, t), the over-strand's segment i and its fraction s, the
     under-strand's segment j and fraction t (segments of the closed polyline: the cable's, then the closure's)."""
-    xy, height = _closed(metrics._points("positions", positions))
+    x = np.asarray(positions, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3 or len(x) < 2:
+        raise ValueError(f"positions must be an (n, 3) array in metres with n >= 2, got shape {np.shape(positions)}")
+    xy, height = _closed(x)
     k = len(xy)
     a, b = xy, np.roll(xy, -1, axis=0)  # segment m: point m to point m + 1 (the last closes the loop)
     i, j = np.triu_indices(k, k=2)

@@ -37,7 +37,6 @@ __all__ = [
     "contact_penetration",
     "crossed",
     "tunneled",
-    "segment_distances",
     "self_distance",
     "kinetic_energy",
     "potential_energy",
@@ -46,7 +45,6 @@ __all__ = [
 ]
 
 TUNNEL_DEPTH = 1.0  # in cable radii: a particle centre this deep inside an obstacle's surface has tunnelled
-_PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
 
 
 def _points(name: str, value) -> np.ndarray:
@@ -205,32 +203,14 @@ def tunneled(positions, scene: Scene, start_positions=None) -> np.ndarray:
     return out
 
 
-def segment_distances(a0, a1, b0, b1) -> np.ndarray:
-    """``(k,)`` distances in metres between the segments [``a0``, ``a1``] and [``b0``, ``b1``] (each ``(k, 3)``),
-    pair by pair: the closest points of two segments (C. Ericson, *Real-Time Collision Detection*, 2005, §5.1.9),
-    vectorised over the pairs. A segment of zero length is its point."""
-    p, q = np.asarray(a0, dtype=np.float64), np.asarray(b0, dtype=np.float64)
-    d1, d2 = np.asarray(a1, dtype=np.float64) - p, np.asarray(b1, dtype=np.float64) - q
-    r = p - q
-    a, e = np.einsum("ij,ij->i", d1, d1), np.einsum("ij,ij->i", d2, d2)
-    f, c, b = np.einsum("ij,ij->i", d2, r), np.einsum("ij,ij->i", d1, r), np.einsum("ij,ij->i", d1, d2)
-    denom = a * e - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(denom > _PARALLEL * a * e, np.clip((b * f - c * e) / denom, 0.0, 1.0), 0.0)
-        t = np.where(e > 0.0, (b * s + f) / e, 0.0)
-        s = np.where(t < 0.0, np.where(a > 0.0, np.clip(-c / a, 0.0, 1.0), 0.0),
-                     np.where(t > 1.0, np.where(a > 0.0, np.clip((b - c) / a, 0.0, 1.0), 0.0), s))
-    t = np.clip(t, 0.0, 1.0)
-    return np.linalg.norm(r + s[:, None] * d1 - t[:, None] * d2, axis=1)
-
-
 def self_distance(positions, *, skip: int = 1) -> tuple:
     """The closest approach of a cable to itself: ``(distance, i, j)``, the smallest distance in metres between the
     centrelines of two segments i < j at least ``skip`` + 1 apart along the cable (j − i > ``skip``; ``skip`` = 1
     leaves out the neighbours that share a particle, :meth:`mjcable.scene.CableSpec.overlapping_neighbours` the
     segments whose capsules overlap at rest), and which two. ``(inf, -1, -1)`` when no pair is that far apart.
 
-    Every pair is measured (n²/2 of them, vectorised): for tests and benchmarks, not for a solver's hot loop.
+    Every pair is measured (:func:`mjcable.geometry.segment_distances`, n² of them): for tests and benchmarks, not
+    for a solver's hot loop.
 
     Example::
 
@@ -238,12 +218,12 @@ def self_distance(positions, *, skip: int = 1) -> tuple:
     """
     x = _points("positions", positions)
     skip = _validate.integer("skip", skip, low=1)
-    i, j = np.triu_indices(len(x) - 1, k=skip + 1)
-    if i.size == 0:
+    if len(x) - 1 <= skip + 1:
         return math.inf, -1, -1
-    d = segment_distances(x[i], x[i + 1], x[j], x[j + 1])
-    k = int(np.argmin(d))
-    return float(d[k]), int(i[k]), int(j[k])
+    d = geometry.segment_distances(x, x)
+    d[np.tril_indices(len(x) - 1, k=skip)] = math.inf  # each pair once, those skip or fewer apart left out
+    i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+    return float(d[i, j]), int(i), int(j)
 
 
 def kinetic_energy(positions, previous, dt: float, masses) -> float:

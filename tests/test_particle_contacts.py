@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable import metrics
+from mjcable import geometry
 from mjcable.bench import contact
 from mjcable.bench.case import Case
 from mjcable.bench.runner import run_case
@@ -281,7 +281,7 @@ def test_a_self_contact_is_held_at_the_pairs_closest_points_not_the_querys(relin
     else:
         contact_kernels.self_contact_sweep(S)
     y = a["x"]
-    d = metrics.segment_distances(y[[2]], y[[3]], y[[0]], y[[1]])[0]
+    d = geometry.segment_distances(y[2:], y[:2])[0, 0]
     above = np.dot(0.5 * (y[2] + y[3]) - (0.2 * y[0] + 0.8 * y[1]), normal) > 0  # over the crossing point
     if relinearised:
         assert d == pytest.approx(2 * r, abs=1e-6) and above
