@@ -32,9 +32,10 @@ _TURN = 1.2  # radius of the quarter turns from the cut ends onto the tails, in 
 _SAMPLES = 100  # control points on the trefoil's part
 _SPACING = 0.3  # units between control points on the turns
 _CHECK_POINTS = 1500  # points of the unit curve that measure its strands' clearance
+_CHECK_TAIL = 6.0  # units of tail on that curve (longer tails leave the strands' clearance as it is)
 _STRAND_ARC = 2.5  # units along the curve beyond which two parts are two strands (> π/2 of the clearance, 1.47)
 
-_STRAIGHT = 1e-9  # relative: a cable whose centre lies this close to its ends' line has no side to close round
+_STRAIGHT = 1e-9  # relative: a direction this close to a line lies on it
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,7 +81,7 @@ def _rotation_onto_x(e: np.ndarray) -> np.ndarray:
     x = np.array([1.0, 0.0, 0.0])
     axis = np.cross(e, x)
     s, c = np.linalg.norm(axis), float(e @ x)
-    if s < 1e-12:
+    if s < _STRAIGHT:  # e along ±x already
         return np.eye(3) if c > 0 else np.diag([-1.0, -1.0, 1.0])
     k = axis / s
     cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
@@ -100,7 +101,7 @@ def overhand_knot(clearance: float, *, tail: float = 0.3, centre=(0.0, 0.0, 1.0)
       centre: ``(3,)`` metres, the midpoint of the two ends.
 
     Returns:
-      The :class:`OverhandKnot` (its loop takes about 21 clearances of cable, the whole knot about 25).
+      The :class:`OverhandKnot` (its loop takes about 20 clearances of cable).
 
     Raises:
       ValueError: a clearance or tail that is not a positive number, or a centre that is not 3 finite numbers.
@@ -108,38 +109,34 @@ def overhand_knot(clearance: float, *, tail: float = 0.3, centre=(0.0, 0.0, 1.0)
     clearance = _validate.number("clearance", clearance, low=0.0, low_open=True, unit="m")
     tail = _validate.number("tail", tail, low=0.0, low_open=True, unit="m")
     centre = np.array(_validate.vec3("centre", centre, unit="m"))
-    t = np.linspace(_TIP + _GAP, _TIP + 2.0 * math.pi - _GAP, _SAMPLES)
-    loop, tangent = _trefoil(t)
-    normal = np.array([0.0, 0.0, 1.0])  # the tails leave along ± the trefoil's axis
     scale = clearance / _unit_clearance()  # metres per unit
-    first = _tail(loop[0], -tangent[0], normal, tail / scale)[::-1]
-    last = _tail(loop[-1], tangent[-1], -normal, tail / scale)
-    points = np.concatenate([first, loop, last]) * scale
+    points, start, stop = _unit_knot(tail / scale)
+    points = points * scale
     rotation = _rotation_onto_x((points[-1] - points[0]) / np.linalg.norm(points[-1] - points[0]))
     points = (points - 0.5 * (points[0] + points[-1])) @ rotation.T + centre
     curve = spline.CatmullRom(points)
-    loop_length = _arc(curve, points, len(first) - 1, len(first) + len(loop) - 1)
+    m = len(points)
+    loop_length = float(curve.arc_length(start / (m - 1), stop / (m - 1)))
     points.setflags(write=False)
     return OverhandKnot(points=points, clearance=clearance, loop_length=loop_length, length=curve.length)
 
 
-def _arc(curve: spline.CatmullRom, points: np.ndarray, a: int, b: int) -> float:
-    """Arc length of ``curve`` between its control points ``a`` and ``b``."""
-    m = len(points)
-    return float(curve.arc_length(a / (m - 1), b / (m - 1)))
+def _unit_knot(tail: float) -> tuple:
+    """The knot's control points in units of the trefoil's lobes, with straight tails ``tail`` units long:
+    ``(points (m, 3), start, stop)``, the trefoil's part running from control point ``start`` to ``stop``."""
+    loop, tangent = _trefoil(np.linspace(_TIP + _GAP, _TIP + 2.0 * math.pi - _GAP, _SAMPLES))
+    normal = np.array([0.0, 0.0, 1.0])  # the tails leave along ± the trefoil's axis
+    first = _tail(loop[0], -tangent[0], normal, tail)[::-1]
+    last = _tail(loop[-1], tangent[-1], -normal, tail)
+    return np.concatenate([first, loop, last]), len(first), len(first) + len(loop) - 1
 
 
 @functools.cache
 def _unit_clearance() -> float:
-    """The least distance between the strands of the unit knot (tails of 6 units), measured on the polyline through
-    :data:`_CHECK_POINTS` points of its Catmull-Rom curve (strands: parts more than :data:`_STRAND_ARC` apart along
-    it)."""
-    t = np.linspace(_TIP + _GAP, _TIP + 2.0 * math.pi - _GAP, _SAMPLES)
-    loop, tangent = _trefoil(t)
-    normal = np.array([0.0, 0.0, 1.0])
-    points = np.concatenate([_tail(loop[0], -tangent[0], normal, 6.0)[::-1], loop,
-                             _tail(loop[-1], tangent[-1], -normal, 6.0)])
-    x = spline.CatmullRom(points).position(np.linspace(0.0, 1.0, _CHECK_POINTS))
+    """The least distance between the strands of the unit knot (tails of :data:`_CHECK_TAIL`), measured on the
+    polyline through :data:`_CHECK_POINTS` points of its Catmull-Rom curve (strands: parts more than
+    :data:`_STRAND_ARC` apart along it)."""
+    x = spline.CatmullRom(_unit_knot(_CHECK_TAIL)[0]).position(np.linspace(0.0, 1.0, _CHECK_POINTS))
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
     apart = arc[None, :-1] - arc[1:, None]  # along the curve from the end of segment i to the start of segment j
     return float(geometry.segment_distances(x, x)[apart > _STRAND_ARC].min())
