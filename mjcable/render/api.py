@@ -23,7 +23,7 @@ from mjcable.render import camera as cameras
 from mjcable.render.grid import Layout, compose, grid_layout
 from mjcable.render.options import (Options, SceneLike, check_fps, check_min_cable_px, check_path, check_scene,
                                     check_seconds, check_settings, check_size, options)
-from mjcable.render.overlays import add_centreline
+from mjcable.render.overlays import add_cables, add_centreline
 from mjcable.render.tiles import TileStream, make_tiles
 from mjcable.render.video_io import write_video
 from mjcable.simulator import Simulator
@@ -282,12 +282,15 @@ def render_env(env, path, *, seconds: float = 5.0, fps: int = 30, width: int = 6
                                      render_flag_overrides=_ENV_RENDER_FLAGS, scene_callback=draw_cable)
 
     def draw_cable(physics, scn: mujoco.MjvScene) -> None:
-        """Draw the cable's centreline as in :func:`frames`, where the physics reads it out (mjcable.envs)."""
+        """Draw the cables' centrelines as in :func:`frames` (each cable in its colour), where the physics reads
+        them out (mjcable.envs)."""
         if not hasattr(physics, "centreline"):
             return
         points = np.asarray(physics.centreline())
-        radius = float(physics.scene.cable.radius) if hasattr(physics, "scene") else DEFAULT_ENV_CABLE_RADIUS
         pixel = cameras.scene_pixel_size(scn, points.mean(axis=0), height)
-        add_centreline(scn, points, max(radius, min_cable_px * pixel))
+        if hasattr(physics, "scene"):
+            add_cables(scn, physics.scene, points, min_cable_px * pixel)
+        else:
+            add_centreline(scn, points, max(DEFAULT_ENV_CABLE_RADIUS, min_cable_px * pixel))
 
     return write_video(path, stream(), fps=fps, shape=(height, width))
