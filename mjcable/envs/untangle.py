@@ -28,9 +28,10 @@ LENGTH_A = 0.4  # m, the cable to move (index 0)
 LENGTH_B = 0.5  # m, the cable to leave in place (index 1)
 RADIUS = 0.005  # m, both cables
 SEGMENTS_A, SEGMENTS_B = 20, 25  # 20 mm segments
-MASS_A, MASS_B = 0.04, 0.05  # kg
-FRICTION = 0.5  # Coulomb μ of the cables (and of the table, which sets none of its own)
-DAMPING = 1.0  # 1/s
+MASS_A, MASS_B = 0.04, 0.15  # kg: B a heavier cable (0.3 kg/m) than A (0.1 kg/m)
+FRICTION = 0.3  # Coulomb μ of the cables (and of the table, which sets none of its own)
+YOUNG_A, YOUNG_B = 0.0, 1e6  # Pa: A a limp rope, B a cable that bends (E·I = 4.9e-4 N·m²)
+DAMPING_A, DAMPING_B = 3.0, 1.0  # 1/s: one drag per length (A: a third of B's mass per segment), as MuJoCo's one viscosity gives
 B_X = (0.05, 0.15)  # m, B's x (uniform); A's middle crosses it
 A_Y = (-0.1, 0.1)  # m, A's y (uniform); B's middle is at y = 0
 ZONE_Y = (-0.1, 0.1)  # m, the zone's centre y (uniform)
@@ -82,9 +83,9 @@ class Untangle(base.CableTask):
         z_b = TABLE_TOP + RADIUS  # B lies on the table
         z_a = z_b + 2.0 * RADIUS  # A lies on B
         b = CableSpec([[x_b, -0.5 * LENGTH_B, z_b], [x_b, 0.5 * LENGTH_B, z_b]], SEGMENTS_B, RADIUS, MASS_B,
-                      friction=FRICTION, damping=DAMPING)
+                      friction=FRICTION, damping=DAMPING_B, young=YOUNG_B)
         a = CableSpec([[x_b - 0.5 * LENGTH_A, y_a, z_a], [x_b + 0.5 * LENGTH_A, y_a, z_a]], SEGMENTS_A, RADIUS,
-                      MASS_A, friction=FRICTION, damping=DAMPING)
+                      MASS_A, friction=FRICTION, damping=DAMPING_A, young=YOUNG_A)
         table = Box(size=_TABLE_HALF, pos=(0.0, 0.0, TABLE_TOP - _TABLE_HALF[2]))
         return Scene((a, b), pins=(Pin(0, "gripper", cable=0),), obstacles=(Floor(), table), name="untangle")
 
