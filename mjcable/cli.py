@@ -2,7 +2,8 @@
 
 Subcommands::
 
-    mjcable demo                                   side-by-side video of every available model on the table scene
+    mjcable demo                                   side-by-side video of every available model on the table scene,
+                                                   then of those that simulate several cables on the Y-harness
     mjcable render --scene S --model M -o out.mp4  one model (or several side by side, or "all") on a built-in scene
     mjcable render --env TASK --model M --policy random -o out.mp4   an episode of a dm_control task (mjcable.envs)
     mjcable export [--out models] [--check]        MJCF of every native model x built-in scene
@@ -24,11 +25,13 @@ import time
 from pathlib import Path
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
-__all__ = ["main", "build_parser", "demo_selection", "DEMO_FILE", "DEMO_SCENE"]
+__all__ = ["main", "build_parser", "demo_selection", "demo_harness_selection", "DEMO_FILE", "DEMO_SCENE",
+           "DEMO_HARNESS_SEGMENTS"]
 
 DEMO_FILE = "mjcable-demo.mp4"
 DEMO_SCENE = "table"
-DEMO_SECONDS = 3.0  # s of video: a few minutes of rendering for every model on 2 CPU cores
+DEMO_SECONDS = 3.0  # s of video per part: a few minutes of rendering for every model on 2 CPU cores
+DEMO_HARNESS_SEGMENTS = 20  # segments per leg of the demo's Y-harness (mjcable.bench.harness.y_harness_scene)
 DEMO_TILE = (320, 240)  # pixels per tile (width, height)
 RENDER_SIZE = (640, 480)  # pixels (width, height) of `mjcable render` with one model
 GRID_TILE = (320, 240)  # pixels per tile of `mjcable render` with several models
@@ -72,9 +75,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"mjcable {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    demo = sub.add_parser("demo", help="side-by-side video of every available model on the table scene",
-                          description="Render every available cable model on the 'table' scene side by side into an "
-                                      f"MP4 in the current folder ({DEMO_FILE}) and print its path.")
+    demo = sub.add_parser("demo", help="side-by-side video of every available model on the table scene, then of "
+                          "those that simulate several cables on a Y-harness",
+                          description="Render every available cable model on the 'table' scene side by side, then "
+                                      "every model that simulates several cables on a Y-harness of three cables (each "
+                                      f"in its colour), into an MP4 in the current folder ({DEMO_FILE}) and print its "
+                                      "path.")
     demo.add_argument("-o", "--out", default=DEMO_FILE, help=f"video file (default: ./{DEMO_FILE})")
     demo.add_argument("--seconds", type=_positive_float, default=DEMO_SECONDS, help=argparse.SUPPRESS)
     demo.add_argument("--fps", type=_positive_int, default=30, help=argparse.SUPPRESS)
@@ -167,6 +173,23 @@ def demo_selection() -> Tuple[str, Tuple[str, ...], Dict[str, Exception]]:
     return DEMO_SCENE, models, problems
 
 
+def demo_harness_selection() -> Tuple[object, Tuple[str, ...], Dict[str, Exception], Tuple[str, ...]]:
+    """The second part of ``mjcable demo``: ``(scene, models, problems, left_out)``, the scene being the Y-harness
+    (:func:`mjcable.bench.harness.y_harness_scene`, :data:`DEMO_HARNESS_SEGMENTS` segments per leg), the models every
+    model of the catalogue (at call time) that simulates several cables with junctions and builds it, ``problems``
+    ``{model: exception}`` those of them that failed to, and ``left_out`` the models without those capabilities."""
+    from mjcable import catalog, render
+    from mjcable.bench.harness import y_harness_scene
+
+    scene = y_harness_scene(DEMO_HARNESS_SEGMENTS)
+    able = tuple(m for m in catalog.names() if catalog.get(m).several_cables and catalog.get(m).junctions)
+    left_out = tuple(m for m in catalog.names() if m not in able)
+    if not able:
+        return scene, (), {}, left_out
+    models, problems = render.available_models(scene, models=able)
+    return scene, models, problems, left_out
+
+
 def _demo(args) -> int:
     from mjcable import render
 
@@ -177,9 +200,20 @@ def _demo(args) -> int:
     if not models:
         print("mjcable demo: no model is available", file=sys.stderr)
         return EXIT_FAILED
+    harness, harness_models, harness_problems, left_out = demo_harness_selection()
+    _report_problems(harness_problems)
+    parts = [(scene, models)]
     print(f"mjcable demo: rendering {', '.join(models)} on the {scene!r} scene ({args.seconds:g} s)", file=sys.stderr)
-    path = render.render_grid(scene, models, Path(args.out), seconds=args.seconds, fps=args.fps,
-                              tile_width=args.width, tile_height=args.height)
+    if harness_models:
+        parts.append((harness, harness_models))
+        print(f"mjcable demo: then {', '.join(harness_models)} on a Y-harness of three cables ({args.seconds:g} s)",
+              file=sys.stderr)
+    if left_out:
+        print(f"mjcable demo: the Y-harness leaves out {', '.join(left_out)}: they don't simulate several cables with "
+              f"junctions yet", file=sys.stderr)
+    path = render.render_parts(parts, Path(args.out), seconds=args.seconds, fps=args.fps,
+                               tile_width=args.width, tile_height=args.height)
+    problems = {**problems, **harness_problems}
     print(f"mjcable demo: done in {time.perf_counter() - start:.1f} s", file=sys.stderr)
     print(path.resolve())
     return EXIT_FAILED if problems else EXIT_OK

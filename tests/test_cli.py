@@ -40,15 +40,26 @@ def test_demo_renders_a_model_registered_at_run_time(capsys):
     assert "throwaway" not in cli.demo_selection()[1]
 
 
+def test_the_demos_harness_part_has_every_model_with_several_cables_and_junctions():
+    scene, models, problems, left_out = cli.demo_harness_selection()
+    assert len(scene.cables) == 3 and len(scene.junctions) == 2
+    able = tuple(m for m in catalog.names() if catalog.get(m).several_cables and catalog.get(m).junctions)
+    assert models == able and problems == {}
+    assert left_out == tuple(m for m in catalog.names() if m not in able)
+
+
 def test_demo_renders_what_it_selects(tmp_path, monkeypatch, capsys):
     """The demo's video holds one tile per selected model (two here, to stay fast; all of them: the slow test)."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(cli, "demo_selection", lambda: ("hang", ("springs", "xpbd"), {}))
+    harness = cli.demo_harness_selection()[0]
+    monkeypatch.setattr(cli, "demo_harness_selection", lambda: (harness, ("joints",), {}, ("xpbd",)))
     status, out, err = run(["demo", *TINY], capsys)
     assert status == 0, err
     assert "springs, xpbd" in err and "'hang'" in err
+    assert "then joints on a Y-harness" in err and "leaves out xpbd" in err
     video, fps = render.read_video(Path(out.strip()))
-    assert video.shape == (2, 48, 2 * 64, 3) and fps == pytest.approx(20)
+    assert video.shape == (4, 48, 2 * 64, 3) and fps == pytest.approx(20)  # the hang's 2 frames, the harness' 2
     assert sorted(p.name for p in tmp_path.iterdir()) == [cli.DEMO_FILE]
 
 
@@ -63,7 +74,8 @@ def test_demo_writes_a_video_of_every_available_model_in_the_current_folder(tmp_
     n = len(catalog.names())  # every model builds the demo scene
     rows = math.ceil(n / 4)  # up to 4 per row, rows filled evenly
     columns = math.ceil(n / rows)
-    assert video.shape == (2, rows * 48, columns * 64, 3) and fps == pytest.approx(20)
+    several = [m for m in catalog.names() if catalog.get(m).several_cables and catalog.get(m).junctions]
+    assert video.shape == (4 if several else 2, rows * 48, columns * 64, 3) and fps == pytest.approx(20)
     assert video.std() > 10.0  # not blank
     assert sorted(p.name for p in tmp_path.iterdir()) == [cli.DEMO_FILE]
 

@@ -13,7 +13,7 @@ import pytest
 from scipy import optimize
 
 import mjcable
-from catalog_params import model_params
+from catalog_params import marked, model_params
 from mjcable import catalog, geometry
 from mjcable.scene import Box, Capsule, Cylinder, Floor, Pin, Sphere
 
@@ -33,6 +33,15 @@ MODELS = mjcable.MODELS
 MODEL_PARAMS = model_params()
 
 TASKS = envs.names("benchmarking") if envs else ()  # the gripper tasks; the arm task jaco_unplug: test_jaco_unplug.py
+# every task with every model that can run it (envs.models: the catalogue's capabilities the task requires)
+TASK_MODELS = [(task, model) for task in TASKS for model in envs.models(task)] if envs else []
+
+
+def _task_model_params(marks=lambda task, model: ()) -> list:
+    """``TASK_MODELS`` as ``(task, model)`` test parameters, ``composite`` marked (catalog_params.marked), plus
+    ``marks(task, model)``."""
+    return [pytest.param(t, m, marks=(*marked(m).marks, *marks(t, m)) if m == "composite" else marks(t, m))
+            for t, m in TASK_MODELS]
 MAX_GRIPPER_SPEED = envs.MAX_GRIPPER_SPEED if envs else None
 SHORT_LIMIT = 0.2  # s: conformance episodes of 10 control steps, so the action sequence crosses an episode's end
 RANDOM_STEPS = 400  # control steps of the random policy: two 4 s episodes
@@ -60,11 +69,10 @@ class _Conformance(test_utils.EnvironmentTestMixin if test_utils else object):
         yield from _random_actions(self.environment.action_spec(), 25, seed=1)
 
 
-for _task in TASKS:
-    for _model in MODELS:
-        _name = f"TestConformance_{_task}_{_model}"
-        globals()[_name] = type(_name, (_Conformance, unittest.TestCase), {"task": _task, "model": _model})
-if TASKS:  # none where dm_control does not run
+for _task, _model in TASK_MODELS:
+    _name = f"TestConformance_{_task}_{_model}"
+    globals()[_name] = type(_name, (_Conformance, unittest.TestCase), {"task": _task, "model": _model})
+if TASK_MODELS:  # none where dm_control does not run
     del _task, _model, _name
 
 
@@ -72,8 +80,7 @@ if TASKS:  # none where dm_control does not run
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model", MODEL_PARAMS)
-@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("task, model", _task_model_params())
 def test_random_policy(task, model):
     env = envs.load(task, model, random=7, time_limit=RANDOM_LIMIT)
     spec = env.action_spec()
@@ -519,9 +526,8 @@ def _assert_same_steps(a, b) -> None:
 _FIRST_OF_EACH_FAMILY = {catalog.names(family)[0] for family in catalog.FAMILIES}  # the quick run's models
 
 
-@pytest.mark.parametrize("model", [m if m in _FIRST_OF_EACH_FAMILY else pytest.param(m, marks=pytest.mark.slow)
-                                   for m in MODELS])
-@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("task, model", _task_model_params(
+    lambda task, model: () if model in _FIRST_OF_EACH_FAMILY else (pytest.mark.slow,)))
 def test_control_step_matches_the_per_step_reference(task, model):
     env, reference = _pair(task, model)
     _assert_same_steps(env.reset(), reference.reset())

@@ -5,13 +5,15 @@ Tasks (registered once in :data:`SUITE`, like the dm_control suite):
 * ``reach_sag``: both ends held by grippers; move one so that the mid-span sag reaches a random target;
 * ``drape``: lay the cable, held at its middle, over a peg so that both ends hang down on either side;
 * ``unplug``: pull the plug end out of a socket (it lets go above a force) and carry it to a random target;
+* ``untangle``: two cables crossed on a table; pull the one held by a gripper off the other and lay it in a target
+  zone without dragging the other (models with ``several_cables`` only; :mod:`mjcable.envs.untangle`);
 * ``jaco_unplug``: a Kinova Jaco arm (joint position targets) holding one end pulls the plug out of a wall socket
   and carries it to a target (:mod:`mjcable.envs.jaco_unplug`; tag ``"arm"``, the others are ``"benchmarking"``).
 
 Every environment is a ``dm_control.rl.control.Environment``: actions are gripper displacements per control step
 (one ``BoundedArraySpec``; grippers are clamped to a workspace where they can neither overstretch the cable nor enter
-an obstacle), observations an ordered dict of float64 arrays (``centreline``, ``centreline_velocity``, ``grippers``
-and the task's values), rewards in [0, 1] and a time limit. The same ``random`` seed gives the same episode.
+an obstacle), observations an ordered dict of float64 arrays (``centreline``, ``centreline_velocity`` of every cable
+in cable order, ``grippers`` and the task's values), rewards in [0, 1] and a time limit. The same ``random`` seed gives the same episode.
 
 Example::
 
@@ -40,7 +42,7 @@ from dm_control.rl import control  # noqa: E402
 
 from mjcable import render  # noqa: E402
 from mjcable import catalog  # noqa: E402
-from mjcable.envs import base, drape, jaco_unplug, reach_sag, unplug  # noqa: E402, F401  (registers the tasks)
+from mjcable.envs import base, drape, jaco_unplug, reach_sag, unplug, untangle  # noqa: E402, F401  (registers the tasks)
 from mjcable.envs.batch import BatchEnv, load_batch  # noqa: E402
 from mjcable.envs.base import (  # noqa: E402
     DEFAULT_CONTROL_TIMESTEP, FAMILY_DEFAULTS, MAX_GRIPPER_SPEED, SUITE, CablePhysics, CableTask, env_defaults)
@@ -51,6 +53,7 @@ __all__ = [
     "load_batch",
     "BatchEnv",
     "names",
+    "models",
     "record_episode",
     "SUITE",
     "ALL_TASKS",
@@ -74,12 +77,24 @@ def names(*tags: str) -> tuple:
     return tuple(SUITE.tagged(*tags)) if tags else tuple(SUITE)
 
 
+def models(task: str) -> tuple:
+    """The catalogue's models (asked at call time) that can run ``task``: those with every catalogue capability the
+    task requires (``untangle``: ``several_cables``; the others: every model).
+
+    Raises:
+      ValueError: unknown task.
+    """
+    if not isinstance(task, str) or task not in SUITE:
+        raise ValueError(f"task must be one of {names()}, got {task!r}")
+    return base.models_for(SUITE[task].requires)
+
+
 def load(task: str, model: str = "flexrod", *, random=None, time_limit: Optional[float] = None,
          control_timestep: Optional[float] = None, **settings) -> control.Environment:
     """A cable task on one cable model.
 
     Args:
-      task: one of :func:`names` (``"reach_sag"``, ``"drape"``, ``"unplug"``, ``"jaco_unplug"``).
+      task: one of :func:`names` (``"reach_sag"``, ``"drape"``, ``"unplug"``, ``"untangle"``, ``"jaco_unplug"``).
       model: a model of the catalogue (:func:`mjcable.catalog.names`).
       random: an int seed, a ``numpy.random.RandomState`` or ``None`` (fresh entropy), as in dm_control.
       time_limit: episode length in seconds (> 0); default the task's (10 s).
@@ -92,7 +107,8 @@ def load(task: str, model: str = "flexrod", *, random=None, time_limit: Optional
       A ``dm_control.rl.control.Environment`` whose ``physics`` is a :class:`CablePhysics`.
 
     Raises:
-      ValueError: unknown task or model, bad ``time_limit``/``control_timestep`` or Simulator settings.
+      ValueError: unknown task or model, a model the task can't run on (see :func:`models`), bad
+        ``time_limit``/``control_timestep`` or Simulator settings.
 
     Example::
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 import collections
 import dataclasses
 import math
-from typing import Dict, Optional, Sequence
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 from dm_control import mujoco
@@ -42,7 +42,7 @@ from dm_env import specs
 
 from mjcable import catalog, scenes
 from mjcable.envs.workspace import Workspace
-from mjcable.render.overlays import add_centreline
+from mjcable.render.overlays import add_cables
 from mjcable.scene import Scene
 from mjcable.simulator import Simulator
 
@@ -54,6 +54,8 @@ __all__ = [
     "make_environment",
     "register",
     "scene_with_pins",
+    "models_for",
+    "check_model_can",
     "env_defaults",
     "tolerance",
     "DEFAULT_CONTROL_TIMESTEP",
@@ -129,7 +131,7 @@ class CablePhysics(mujoco.Physics):
         scene = simulator.scene
         self._grippers = list(scene.grippers)
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]  # the pins that can let go
-        anchors = [scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
+        anchors = [scene.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
         self._anchors = np.array(anchors, dtype=np.float64).reshape(-1, 3)  # the pins' start particles (the scene's)
         self._anchors.setflags(write=False)
         self._gripper_rows = np.array(self._grippers, dtype=np.int64)  # rows of pin_positions that grippers fill
@@ -229,8 +231,8 @@ class CablePhysics(mujoco.Physics):
     def render(self, height=240, width=320, camera_id=-1, overlays=(), depth=False, segmentation=False,
                scene_option=None, render_flag_overrides=None, scene_callback=None) -> np.ndarray:
         """dm_control's ``Physics.render``; unless given a ``scene_callback`` (or asked for depth or segmentation),
-        it also draws the cable's centreline as capsules of the cable's radius, so that every model shows the same
-        continuous cable (the springs model's own geoms are small beads, the particle solvers' are proxy capsules).
+        it also draws every cable's centreline as capsules of its radius in its colour, so that every model shows the
+        same continuous cables (the springs model's own geoms are small beads, the particle solvers' are proxy capsules).
         """
         if scene_callback is None and not (depth or segmentation):
             scene_callback = _draw_centreline
@@ -262,13 +264,25 @@ class CablePhysics(mujoco.Physics):
         return self._workspace
 
     def centreline(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` centreline particles in metres."""
+        """``(Σ (nᵢ + 1), 3)`` centreline particles of every cable in cable order, metres (one cable:
+        ``(n_segments + 1, 3)``; ``scene.cable_slices`` cuts them, :meth:`cable_centreline` gives one)."""
         return self._sim.positions
 
     def centreline_velocity(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` particle velocities in m/s, the model's own
+        """``(Σ (nᵢ + 1), 3)`` particle velocities in m/s of every cable in cable order, the model's own
         (:attr:`mjcable.Simulator.velocities`)."""
         return self._sim.velocities
+
+    def cable_centreline(self, c: int) -> np.ndarray:
+        """``(n_c + 1, 3)`` the centreline particles of cable ``c`` (an index into ``scene.cables``), metres.
+
+        Raises:
+          ValueError: ``c`` is not a cable of the scene.
+        """
+        count = len(self.scene.cables)
+        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not 0 <= c < count:
+            raise ValueError(f"c must be a cable index in [0, {count - 1}], got {c!r}")
+        return self._sim.positions[self.scene.cable_slices[c]]
 
     def gripper_positions(self) -> np.ndarray:
         """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.grippers``."""
@@ -301,15 +315,17 @@ class CablePhysics(mujoco.Physics):
 
 
 def _draw_centreline(physics: CablePhysics, scn) -> None:
-    """Append the centreline to the ``mjvScene`` as capsules in the cable's colour (per frame, not per step)."""
-    add_centreline(scn, physics.centreline(), physics.scene.cable.radius)
+    """Append every cable's centreline to the ``mjvScene`` as capsules of its radius in its colour (per frame, not
+    per step)."""
+    add_cables(scn, physics.scene, physics.centreline(), 0.0)
 
 
 class CableTask(base.Task):
     """Base of the cable tasks: gripper-displacement actions, cable observations, a workspace clamp.
 
     Subclasses set ``name`` (the registry key), ``physics_class`` (a :class:`CablePhysics` subclass with the task's
-    read-outs) and ``controlled`` (the gripper pins the action moves, in order), implement :meth:`make_scene`,
+    read-outs), ``controlled`` (the gripper pins the action moves, in order) and, where their scenes need them, the
+    catalogue capabilities ``requires`` (``("several_cables",)``: loading on another model is a ``ValueError``), implement :meth:`make_scene`,
     :meth:`make_workspace`, :meth:`task_observations` and :meth:`get_reward`, draw their episode's random values from
     ``self.random`` in :meth:`make_scene` / :meth:`sample_episode`, and register with :func:`register`.
 
@@ -319,6 +335,7 @@ class CableTask(base.Task):
     """
 
     controlled: Sequence[int] = ()
+    requires: Tuple[str, ...] = ()  # catalogue capabilities the task's scenes need, e.g. ("several_cables",)
     default_time_limit: float = math.inf  # s, set by :func:`register`
 
     def __init__(self, *, random=None, control_timestep: float = DEFAULT_CONTROL_TIMESTEP):
@@ -362,8 +379,8 @@ class CableTask(base.Task):
         physics.command_grippers({k: a[3 * i: 3 * i + 3] for i, k in enumerate(self.controlled)})
 
     def get_observation(self, physics: CablePhysics) -> collections.OrderedDict:
-        """``centreline`` (n+1, 3) m, ``centreline_velocity`` (n+1, 3) m/s, ``grippers`` (n_grippers, 3) m, then the
-        task's values; all float64."""
+        """``centreline`` (Σ (nᵢ + 1), 3) m and ``centreline_velocity`` (Σ (nᵢ + 1), 3) m/s of every cable in cable
+        order (one cable: (n+1, 3)), ``grippers`` (n_grippers, 3) m, then the task's values; all float64."""
         obs = collections.OrderedDict()
         obs["centreline"] = physics.centreline()
         obs["centreline_velocity"] = physics.centreline_velocity()
@@ -428,6 +445,7 @@ def register(default_time_limit: float, *tags: str):
         def factory(model: str = "flexrod", *, random=None, time_limit: Optional[float] = None,
                     control_timestep: Optional[float] = None, **settings) -> control.Environment:
             catalog.check_model(model)
+            check_model_can(task_class, model)
             limit = _check_seconds("time_limit", time_limit, allow_none=True) or default_time_limit
             step = _check_seconds("control_timestep", control_timestep, allow_none=True) or DEFAULT_CONTROL_TIMESTEP
             task = task_class(random=random, control_timestep=step)
@@ -435,6 +453,7 @@ def register(default_time_limit: float, *tags: str):
                                     control_timestep=step, settings={**env_defaults(model), **settings})
 
         task_class.default_time_limit = default_time_limit
+        factory.requires = task_class.requires
         factory.__name__ = task_class.name
         factory.__qualname__ = task_class.name
         factory.__doc__ = task_class.__doc__
@@ -442,6 +461,24 @@ def register(default_time_limit: float, *tags: str):
         return task_class
 
     return wrap
+
+
+def models_for(requires: Sequence[str]) -> tuple:
+    """The catalogue's models (asked at call time) that have every capability of ``requires`` (names of boolean
+    fields of :class:`mjcable.catalog.ModelEntry`, e.g. ``"several_cables"``)."""
+    return tuple(m for m in catalog.names() if all(getattr(catalog.get(m), c) for c in requires))
+
+
+def check_model_can(task_class: type, model: str) -> None:
+    """Raise unless ``model`` has every capability the task class ``requires``.
+
+    Raises:
+      ValueError: naming the task, the capabilities ``model`` lacks and the models that have them.
+    """
+    missing = [c for c in task_class.requires if not getattr(catalog.get(model), c)]
+    if missing:
+        raise ValueError(f"model must simulate {' and '.join(missing)} (catalogue capabilities) for task "
+                         f"{task_class.name!r}, got {model!r}; use one of {models_for(task_class.requires)}")
 
 
 def scene_with_pins(name: str, pins: tuple, **cable) -> Scene:

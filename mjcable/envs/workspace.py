@@ -7,7 +7,9 @@ A :class:`Workspace` clamps each commanded gripper motion, whatever the actions,
   geoms, so nothing else would stop a gripper inside a table);
 * its distance to every other pin that still holds the cable (another gripper, a world pin, an engaged socket) stays
   below ``(1 - STRETCH_MARGIN)`` times the arc length of cable between the two, so no action can pull the cable taut
-  beyond its rest length.
+  beyond its rest length. In a scene of several cables the arc runs along the cable the gripper holds, and through
+  the junctions into the others (the shortest way, over a loop's either side); a pin on a cable that no junction
+  joins to the gripper's holds no tether on it.
 
 Motions are split into increments no longer than half the clearance, each projected onto the allowed set, so a
 gripper cannot tunnel through a thin obstacle. A projection that fails to satisfy every constraint keeps the last
@@ -89,11 +91,19 @@ class Workspace:
     def _make_tethers(self, k: int) -> Tuple[Tether, ...]:
         scene = self.scene
         i = scene.pin_particle(k)
+        arcs = _arc_lengths(scene, i) if scene.junctions else None
         tethers = []
         for j in range(len(scene.pins)):
-            if j != k:
-                segments = abs(scene.pin_particle(j) - i)
-                tethers.append(Tether(j, (1.0 - STRETCH_MARGIN) * segments * scene.cable.segment_length))
+            if j == k:
+                continue
+            if arcs is not None:
+                arc = arcs[scene.pin_particle(j)]
+            elif scene.pin_cable(j) == scene.pin_cable(k):  # along one cable: segments times their length
+                arc = abs(scene.pin_particle(j) - i) * scene.cables[scene.pin_cable(k)].segment_length
+            else:
+                continue  # another cable, not joined to this one
+            if math.isfinite(arc):
+                tethers.append(Tether(j, (1.0 - STRETCH_MARGIN) * arc))
         return tuple(tethers)
 
     def tethers(self, k: int) -> Tuple[Tether, ...]:
@@ -102,7 +112,7 @@ class Workspace:
 
     def tether(self, k: int, j: int) -> float:
         """The longest allowed distance in metres between gripper pin ``k`` and pin ``j`` (while ``j`` holds the
-        cable): its :class:`Tether`'s ``max_distance``.
+        cable): its :class:`Tether`'s ``max_distance`` (``inf`` where no cable joins the two).
 
         Raises:
           ValueError: ``k`` is not a gripper pin, or ``j`` is ``k`` or not a pin.
@@ -188,3 +198,21 @@ class Workspace:
         pins = np.array(pins, dtype=np.float64)
         pins[k] = start
         return self.paths({k: displacement}, 1, pins, engaged)[0][0, 0]
+
+
+def _arc_lengths(scene: Scene, start: int) -> np.ndarray:
+    """``(scene.n_particles,)`` m: the shortest arc length along the cables from global particle ``start`` to every
+    particle, through the junctions (whose particles are one point); ``inf`` where no cable leads."""
+    from scipy.sparse.csgraph import dijkstra
+
+    n = scene.n_particles
+    node = np.arange(n)  # each particle's node: a junction point's particles share its first one's
+    for point in scene.junction_points():
+        node[list(point)] = point[0]
+    graph = np.full((n, n), np.inf)
+    for cable, s in zip(scene.cables, scene.cable_slices):
+        a, b = node[s.start:s.stop - 1], node[s.start + 1:s.stop]
+        np.minimum.at(graph, (a, b), cable.segment_length)  # two cables joined at both ends: the shorter
+        np.minimum.at(graph, (b, a), cable.segment_length)
+    graph[~np.isfinite(graph)] = 0.0  # a dense graph's zeros are no edges
+    return dijkstra(graph, directed=False, indices=node[start])[node]

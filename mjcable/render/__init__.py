@@ -4,7 +4,7 @@ or an episode of a dm_control environment.
 One module per concern:
 
 * :mod:`~mjcable.render.api`: the public functions (:func:`frames`, :func:`render_video`, :func:`grid_frames`,
-  :func:`render_grid`, :func:`render_env`, :func:`available_models`);
+  :func:`render_grid`, :func:`render_parts`, :func:`render_env`, :func:`available_models`);
 * :mod:`~mjcable.render.tiles`: one simulation and its offscreen renderer per tile, stepped ``1 / fps`` seconds a
   frame; a diverged model's tile freezes, darkens and says so while the others go on;
 * :mod:`~mjcable.render.grid`: the layout of tiles in a side-by-side frame;
@@ -15,8 +15,10 @@ One module per concern:
 * :mod:`~mjcable.render.options`: argument checks.
 
 What a frame shows: the scene as every model builds it (``mjcable/mjcf/world.py``: obstacles, lights, the same
-materials), plus the cable's centreline (:attr:`Simulator.positions`) drawn as capsules of the cable's radius, so that
-every model looks like the same cable; a label (the model's name) and the simulated time in each tile.
+materials), plus each cable's centreline (:attr:`Simulator.positions`) drawn as capsules of its radius in its colour
+(:data:`mjcable.mjcf.world.CABLE_COLOURS`), so that every model looks like the same cables; a label (the model's
+name) and the simulated time in each tile. :func:`render_parts` puts several scenes' grids one after another into one
+video (``mjcable demo``: the table, then the Y-harness).
 
 Example::
 
@@ -28,7 +30,8 @@ Example::
     render.render_grid("table", models, "table.mp4", seconds=3)
 """
 
-from mjcable.render.api import available_models, frames, grid_frames, render_env, render_grid, render_video
+from mjcable.render.api import (available_models, frames, grid_frames, render_env, render_grid, render_parts,
+                                render_video)
 from mjcable.render.camera import TRACK
 from mjcable.render.overlays import add_centreline, add_stripe
 from mjcable.render.video_io import read_video, write_video
@@ -38,6 +41,7 @@ __all__ = [
     "grid_frames",
     "render_video",
     "render_grid",
+    "render_parts",
     "render_env",
     "available_models",
     "add_centreline",

@@ -23,12 +23,12 @@ from mjcable.render import camera as cameras
 from mjcable.render.grid import Layout, compose, grid_layout
 from mjcable.render.options import (Options, SceneLike, check_fps, check_min_cable_px, check_path, check_scene,
                                     check_seconds, check_settings, check_size, options)
-from mjcable.render.overlays import add_centreline
+from mjcable.render.overlays import add_cables, add_centreline
 from mjcable.render.tiles import TileStream, make_tiles
 from mjcable.render.video_io import write_video
 from mjcable.simulator import Simulator
 
-__all__ = ["frames", "render_video", "grid_frames", "render_grid", "render_env", "available_models", "POLICIES",
+__all__ = ["frames", "render_video", "grid_frames", "render_grid", "render_parts", "render_env", "available_models", "POLICIES",
            "DEFAULT_ENV_CABLE_RADIUS"]
 
 POLICIES = ("random", "zero")  # render_env's policies
@@ -219,6 +219,46 @@ def render_grid(scene: SceneLike, models: Sequence[str], path, *, seconds: float
     return path
 
 
+def render_parts(parts: Sequence[Tuple[SceneLike, Sequence[str]]], path, *, seconds: float = 5.0, fps: int = 30,
+                 tile_width: int = 320, tile_height: int = 240, dt: float = 0.002, columns: Optional[int] = None,
+                 camera: str = cameras.TRACK, elevation: float = cameras.DEFAULT_ELEVATION,
+                 min_cable_px: float = 1.5, progress: Optional[bool] = None) -> Path:
+    """Render grids of several scenes one after another into one MP4 file, atomically: each part ``(scene,
+    models)`` as :func:`render_grid` renders it, for ``seconds`` each, all in the grid of the largest part (a part of
+    fewer models leaves its last cells dark grey).
+
+    Args:
+      parts: a non-empty sequence of ``(scene, models)``: a :class:`~mjcable.scene.Scene` or the name of a built-in
+        scene, and the models to show it with side by side (each once).
+      columns: tiles per row (default: up to 4, rows filled evenly, for the largest part).
+      Other arguments as in :func:`render_grid`.
+
+    Returns:
+      The path written.
+
+    Example::
+
+        render.render_parts([("table", ("xpbd", "joints")), (harness, ("joints",))], "demo.mp4", seconds=3)
+    """
+    if isinstance(parts, (str, bytes)) or not isinstance(parts, Sequence) or not parts or not all(
+            isinstance(part, (tuple, list)) and len(part) == 2 for part in parts):
+        raise ValueError(f"parts must be a non-empty sequence of (scene, models) pairs, got {parts!r}")
+    checked = [_grid(scene, models, None, None, seconds=seconds, fps=fps, width=tile_width, height=tile_height,
+                     camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress, stripe=False)
+               for scene, models in parts]
+    grid = grid_layout(max(len(models) for _, models, *_ in checked), columns)
+    opts = checked[0][2]
+
+    def stream() -> Iterator[np.ndarray]:
+        for scene, models, part_opts, _, _ in checked:
+            layout = Layout(n=len(models), rows=grid.rows, columns=grid.columns)
+            yield from _grid_stream(scene, models, part_opts, layout, dt, {})
+
+    path = check_path(path)
+    write_video(path, stream(), fps=opts.fps, shape=grid.shape(opts.height, opts.width))
+    return path
+
+
 def render_env(env, path, *, seconds: float = 5.0, fps: int = 30, width: int = 640, height: int = 480,
                camera: Union[str, int] = "overview", policy: str = "random", seed: Optional[int] = None,
                min_cable_px: float = 1.5) -> Path:
@@ -282,12 +322,15 @@ def render_env(env, path, *, seconds: float = 5.0, fps: int = 30, width: int = 6
                                      render_flag_overrides=_ENV_RENDER_FLAGS, scene_callback=draw_cable)
 
     def draw_cable(physics, scn: mujoco.MjvScene) -> None:
-        """Draw the cable's centreline as in :func:`frames`, where the physics reads it out (mjcable.envs)."""
+        """Draw the cables' centrelines as in :func:`frames` (each cable in its colour), where the physics reads
+        them out (mjcable.envs)."""
         if not hasattr(physics, "centreline"):
             return
         points = np.asarray(physics.centreline())
-        radius = float(physics.scene.cable.radius) if hasattr(physics, "scene") else DEFAULT_ENV_CABLE_RADIUS
         pixel = cameras.scene_pixel_size(scn, points.mean(axis=0), height)
-        add_centreline(scn, points, max(radius, min_cable_px * pixel))
+        if hasattr(physics, "scene"):
+            add_cables(scn, physics.scene, points, min_cable_px * pixel)
+        else:
+            add_centreline(scn, points, max(DEFAULT_ENV_CABLE_RADIUS, min_cable_px * pixel))
 
     return write_video(path, stream(), fps=fps, shape=(height, width))
