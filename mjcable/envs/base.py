@@ -127,7 +127,7 @@ class CablePhysics(mujoco.Physics):
     def _attach(self, simulator: Simulator) -> None:
         self._sim = simulator
         scene = simulator.scene
-        self._grippers = list(scene.grippers)
+        self._grippers = list(scene.gripper_pins)
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]  # the pins that can let go
         anchors = [scene.cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
         self._anchors = np.array(anchors, dtype=np.float64).reshape(-1, 3)  # the pins' start particles (the scene's)
@@ -155,7 +155,7 @@ class CablePhysics(mujoco.Physics):
             sim.reset()
         self._commands = {}
         pins, engaged = self.pin_positions(), self.pins_engaged()
-        for k in scene.grippers:
+        for k in scene.gripper_pins:
             excess = workspace.violation(k, pins[k], pins, engaged)
             if excess > 0.0:
                 raise ValueError(f"gripper of pin {k} starts {excess:.3g} m outside its workspace at "
@@ -271,7 +271,7 @@ class CablePhysics(mujoco.Physics):
         return self._sim.velocities
 
     def gripper_positions(self) -> np.ndarray:
-        """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.grippers``."""
+        """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.gripper_pins``."""
         return self._sim.gripper_positions
 
     def anchors(self) -> np.ndarray:
