@@ -282,7 +282,7 @@ class CablePhysics(mujoco.Physics):
         """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the other pins
         (world pins, sockets) at their start particles."""
         pins = self._anchors.copy()
-        pins[self._gripper_rows] = self._sim.gripper_positions
+        pins[self._gripper_rows] = self._sim.gripper_positions[:len(self._gripper_rows)]  # (free grippers follow)
         return pins
 
     def pins_engaged(self) -> np.ndarray:
