@@ -21,6 +21,7 @@ LIFT_TIME = 1.5  # s: a minimum-jerk lift
 SETTLE, REST, FALL = 0.5, 8.0, 0.05  # s on the table, hanging, falling
 DAMPING = 2.0  # 1/s: the cable's own damping brings it to rest (its drag slows the fall by about c t / 3 ≈ 3 %)
 MIDDLE = 25
+SLOW = {"joints", "composite"}  # 8-10 s each on the shared machine
 # a wavy cable just above the table (0.94 m: its halves hang clear of it), symmetric under a half turn about the
 # vertical through its middle particle
 POINTS = [[-0.35, -0.1, 0.756], [-0.1, 0.1, 0.756], [0.1, -0.1, 0.756], [0.35, 0.1, 0.756]]
@@ -46,7 +47,8 @@ def _mirror_gap(x: np.ndarray, i: int) -> float:
     return float(np.linalg.norm(a - x[i + k], axis=1).max())
 
 
-@pytest.mark.parametrize("model", catalog.names())
+@pytest.mark.parametrize("model", [pytest.param(m, marks=pytest.mark.slow) if m in SLOW else m
+                                   for m in catalog.names()])
 def test_grasp_lift_hang_release(model):
     scene = _table()
     sim = Simulator(scene, model)
