@@ -212,17 +212,13 @@ class Simulator:
 
     @property
     def gripper_forces(self) -> np.ndarray:
-        """``(len(scene.grippers), 3)`` force in newtons each free gripper exerts on the particle it holds, world frame,
-        as :attr:`pin_forces` (the held particle's own weight included; averaged over the last step); zero while it
-        is open and before the first step after it closes."""
-        if not self.scene.grippers:
-            return np.zeros((0, 3))
+        """``(len(scene.grippers), 3)`` force in newtons each free gripper exerts on its particle, world frame, as
+        :attr:`pin_forces`; zero while it is open and before the first step after it closes."""
         return self._backend.gripper_forces()
 
     @property
     def grasped(self) -> tuple:
-        """``(len(scene.grippers),)``: the global particle index each free gripper holds, ``None`` where it is
-        open."""
+        """``(len(scene.grippers),)``: the global particle each free gripper holds, ``None`` where it is open."""
         return tuple(self._grasped)
 
     @property
@@ -395,8 +391,8 @@ class Simulator:
         if orientations is None:
             return self._run(len(targets), rows, none, none, (pins, targets), bool(until_release))
         if np.any(pins >= len(self.scene.pins)):
-            raise ValueError(f"orientations: free grippers (pins >= {len(self.scene.pins)}, got {pins.tolist()}) hold a "
-                             "point, they can't turn; move them in a path without orientations")
+            raise ValueError(f"orientations: free grippers (pins >= {len(self.scene.pins)}, got {pins.tolist()}) can't "
+                             "turn (they hold a point); move them in a path without orientations")
         turns = self._turns(orientations, targets.shape[:2])
         for i in range(len(targets)):  # (a model or pin that can't turn raises at the first row, before a step)
             released = self.released
@@ -540,33 +536,22 @@ class Simulator:
         as a gripper pin's does, and :attr:`gripper_forces` reports what the gripper holds.
 
         The particle is held where it is when the gripper closes, at a fixed offset from the gripper (zero when the
-        gripper was moved onto it first): closing never yanks the cable. Particle solvers switch on a pin row of
-        their state; native models a connect equality to the gripper's mocap body (``mjData.eq_active``).
+        gripper was moved onto it first): closing never yanks the cable (:mod:`mjcable.backends.grasp`).
 
         Args:
           g: the free gripper, 0 <= g < ``len(scene.grippers)``.
           index: the global particle index (negative counts from the end); ``None``: the particle nearest to the
             gripper that no pin or other gripper holds.
 
-        Returns:
-          The grasped particle's global index.
+        Returns the grasped particle's global index.
 
         Raises:
-          ValueError: ``g`` out of range or already closed, ``index`` out of range, or its particle already held
-            by a pin or another gripper.
+          ValueError: ``g`` out of range or closed, ``index`` out of range or held by a pin or another gripper.
 
         Example::
 
-            sim.grasp(0)                                # the particle nearest to free gripper 0
-            k = len(sim.scene.pins)                     # its number among the grippers
-            sim.move_gripper(k, sim.gripper_positions[-1] + [0.0, 0.0, 0.01])
-            sim.step()
-            sim.release(0)
-        """
-        count = len(self.scene.grippers)
-        if not count:
-            raise ValueError("g: the scene has no free grippers; give Scene(..., grippers=(mjcable.Gripper(position),))")
-        g = _validate.integer("g", g, low=0, high=count - 1)
+            sim.grasp(0)   # the particle nearest to free gripper 0, moved as move_gripper(len(sim.scene.pins), ...)"""
+        g = self._free_gripper(g)
         if self._grasped[g] is not None:
             raise ValueError(f"g: free gripper {g} already holds particle {self._grasped[g]}; release it first")
         held = self._held()
@@ -574,7 +559,7 @@ class Simulator:
         if index is None:
             free = np.setdiff1d(np.arange(n), list(held))
             if not len(free):
-                raise ValueError(f"index=None: every particle is held already ({sorted(held.items())})")
+                raise ValueError("index=None: every particle is held already; release one first")
             gripper = self.gripper_positions[len(self.scene.gripper_pins) + g]
             index = int(free[np.argmin(np.linalg.norm(self._positions[free] - gripper, axis=1))])
         else:
@@ -588,21 +573,23 @@ class Simulator:
     def release(self, g: int) -> int:
         """Open free gripper ``g``: its particle is free from the next step on (with the velocity it has).
 
-        Returns:
-          The particle it held.
+        Returns the particle it held.
 
         Raises:
           ValueError: ``g`` out of range, or the gripper open already."""
-        count = len(self.scene.grippers)
-        if not count:
-            raise ValueError("g: the scene has no free grippers; give Scene(..., grippers=(mjcable.Gripper(position),))")
-        g = _validate.integer("g", g, low=0, high=count - 1)
+        g = self._free_gripper(g)
         index = self._grasped[g]
         if index is None:
             raise ValueError(f"g: free gripper {g} holds nothing (it is open); grasp before releasing")
         self._backend.release(g)
         self._grasped[g] = None
         return index
+
+    def _free_gripper(self, g) -> int:
+        """``g`` checked as a free gripper's number."""
+        if not self.scene.grippers:
+            raise ValueError("g: the scene has no free grippers; give Scene(..., grippers=(mjcable.Gripper(position),))")
+        return _validate.integer("g", g, low=0, high=len(self.scene.grippers) - 1)
 
     def _held(self) -> dict:
         """Particle -> what holds it: the scene's pins (but released sockets) and the closed free grippers."""
