@@ -1,5 +1,5 @@
-"""What holds the scene's cables: pins (a particle held by the world, a gripper, a socket or a body) and junctions
-(two particles of the scene's cables joined into one point).
+"""What holds the scene's cables: pins (a particle held by the world, a gripper, a socket or a body), junctions
+(two particles of the scene's cables joined into one point) and free grippers (that grasp any particle at run time).
 
 Frozen dataclasses validated on construction; :class:`mjcable.scene.Scene` checks them against its cables (an index
 in range, the two particles of a junction starting at one point). Re-exported by :mod:`mjcable.scene`.
@@ -13,7 +13,7 @@ from typing import Optional
 from mjcable import _validate
 from mjcable._validate import Vec3, set_field as _set
 
-__all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE"]
+__all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE", "Gripper"]
 
 PIN_KINDS = ("world", "gripper", "socket", "body")
 BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
@@ -104,6 +104,28 @@ class Junction:
         _set(self, "a", _end("a", self.a))
         _set(self, "b", _end("b", self.b))
         _set(self, "clamp", _validate.boolean("clamp", self.clamp))
+
+
+@dataclasses.dataclass(frozen=True)
+class Gripper:
+    """A free gripper: a mocap body that holds nothing at the start and grasps any particle at run time
+    (:meth:`mjcable.Simulator.grasp`, :meth:`mjcable.Simulator.release`).
+
+    Args:
+      position: ``(3,)`` m, where it starts, world frame (finite).
+
+    Free gripper ``g`` of ``Scene.grippers`` is moved like a gripper pin, as ``move_gripper(len(scene.pins) + g,
+    position)``.
+
+    Example::
+
+        scene = Scene(cable, obstacles=(table,), grippers=(Gripper((0.0, 0.0, 0.8)),))
+    """
+
+    position: Vec3
+
+    def __post_init__(self):
+        _set(self, "position", _validate.vec3("position", self.position, unit="m"))
 
 
 def _end(name: str, value) -> tuple:

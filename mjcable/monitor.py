@@ -126,6 +126,9 @@ def breach(check: int, value: float, where: int, scene: Scene, lim: Limits, *, s
         text = f"a particle moved at {value:.3g} m/s (limit {MAX_SPEED:g} m/s) over one step"
     elif check == CHECK_VELOCITY:
         text = f"the model's velocity of a particle is {value:.3g} m/s (limit {MAX_SPEED:g} m/s)"
+    elif check == CHECK_PIN and where >= len(scene.pins):  # a particle solver's row of a free gripper
+        text = (f"the particle free gripper {where - len(scene.pins)} holds is {value:.4g} m from it (torn beyond "
+                f"{lim.tear:.4g} m)")
     elif check == CHECK_PIN:
         pin = scene.pins[where]
         text = (f"pinned particle {scene.pin_particle(where)} is {value:.4g} m from its {pin.kind} pin (pins[{where}]; "

@@ -23,7 +23,7 @@ import numpy as np
 from mjcable import _validate, geometry, joins, spline
 from mjcable._validate import set_field as _set
 from mjcable import obstacles as obstacles_
-from mjcable.joins import BODY_PIN_TOLERANCE, JUNCTION_TOLERANCE, PIN_KINDS, Junction, Pin
+from mjcable.joins import BODY_PIN_TOLERANCE, JUNCTION_TOLERANCE, PIN_KINDS, Gripper, Junction, Pin
 from mjcable.obstacles import START_CONTACT_TOLERANCE, Box, Capsule, Cylinder, Floor, Obstacle, Sphere
 
 __all__ = [
@@ -33,6 +33,7 @@ __all__ = [
     "CableSpec",
     "Pin",
     "PIN_KINDS",
+    "Gripper",
     "Obstacle",
     "Floor",
     "Box",
@@ -278,6 +279,10 @@ class Scene:
         the user's names, joint, actuator and sensor order, keyframes and options (see :mod:`mjcable.user_world`).
         ``None``: only the listed obstacles.
       keyframe: the world's keyframe the simulation starts from (``None``: its default pose); only with ``world``.
+      grippers: a sequence of free :class:`Gripper` s, mocap bodies that hold nothing at the start and grasp a
+        particle at run time (:meth:`mjcable.Simulator.grasp`); free gripper ``g`` is numbered ``len(pins) + g``
+        where a Simulator numbers grippers (``move_gripper``, ``step_along``). :attr:`gripper_pins` are the gripper
+        pins.
 
     Particles of several cables are numbered in cable order: cable ``c``'s particle ``i`` is the global particle
     ``cable_slices[c].start + i`` of :attr:`particles` (and of a Simulator's positions).
@@ -300,6 +305,7 @@ class Scene:
     name: str = dataclasses.field(default="scene", kw_only=True)
     world: object = dataclasses.field(default=None, kw_only=True)
     keyframe: Optional[str] = dataclasses.field(default=None, kw_only=True)
+    grippers: tuple = dataclasses.field(default=(), kw_only=True)
 
     def __post_init__(self):
         _set(self, "cable", _cables(self.cable))
@@ -317,6 +323,8 @@ class Scene:
                                           "Junction instances, e.g. (Junction((0, -1), (1, 0)),)"))
         self._check_junctions()
         self._check_cables_apart()
+        _set(self, "grippers", _sequence("grippers", self.grippers, Gripper,
+                                         "Gripper instances, e.g. (Gripper((0.0, 0.0, 1.0)),)"))
         obstacles = _sequence("obstacles", self.obstacles, Obstacle,
                               "Floor, Box, Cylinder, Capsule or Sphere instances, e.g. (Floor(),)")
         for c, cable in enumerate(self.cables):
@@ -529,8 +537,9 @@ class Scene:
         return GRAVITY.copy() if self.world is None else self.world.gravity.copy()
 
     @property
-    def grippers(self) -> tuple:
-        """Indices into ``pins`` of the gripper pins."""
+    def gripper_pins(self) -> tuple:
+        """Indices into ``pins`` of the gripper pins (the free grippers of :attr:`grippers` follow them as
+        ``len(pins) + g`` wherever a Simulator numbers grippers)."""
         return tuple(k for k, p in enumerate(self.pins) if p.kind == "gripper")
 
     def cable_scene(self, c: int) -> "Scene":

@@ -113,9 +113,10 @@ class Simulator:
         self.settings = prechecks.resolve_iterations(scene, entry, self.settings, self.dt)
         prechecks.check(scene, entry, self.settings, self.dt)
         self.scene = scene
-        self._grippers = scene.grippers
+        # the gripper pins, then the free grippers (numbered len(pins) + g)
+        self._grippers = scene.gripper_pins + tuple(range(len(scene.pins), len(scene.pins) + len(scene.grippers)))
         # step_along's default pins (numba: kept writable)
-        self._gripper_pins = np.array(scene.grippers, dtype=np.int64)
+        self._gripper_pins = np.array(self._grippers, dtype=np.int64)
         self.model = model
         self.family = entry.family
         backend = entry.backend(scene, entry, self.dt, self.settings)
@@ -129,6 +130,7 @@ class Simulator:
         self._start_steps()
 
     def _start_steps(self) -> None:
+        self._grasped = [None] * len(self.scene.grippers)  # the particle each free gripper holds
         self._steps = 0
         self._pending = 0.0
         self._positions = self._backend.positions()
@@ -204,8 +206,20 @@ class Simulator:
 
     @property
     def gripper_positions(self) -> np.ndarray:
-        """``(len(scene.grippers), 3)`` commanded gripper positions in metres, in ``scene.grippers`` order."""
+        """``(len(scene.gripper_pins) + len(scene.grippers), 3)`` commanded gripper positions in metres: the gripper
+        pins in ``scene.gripper_pins`` order, then the free grippers."""
         return self._backend.gripper_positions()
+
+    @property
+    def gripper_forces(self) -> np.ndarray:
+        """``(len(scene.grippers), 3)`` force in newtons each free gripper exerts on its particle, world frame, as
+        :attr:`pin_forces`; zero while it is open and before the first step after it closes."""
+        return self._backend.gripper_forces()
+
+    @property
+    def grasped(self) -> tuple:
+        """``(len(scene.grippers),)``: the global particle each free gripper holds, ``None`` where it is open."""
+        return tuple(self._grasped)
 
     @property
     def released(self) -> frozenset:
@@ -341,7 +355,7 @@ class Simulator:
         Args:
           path: ``(steps, len(pins), 3)`` gripper positions in metres, world frame, finite; ``steps`` >= 0.
           pins: the gripper pins (indices into ``scene.pins``) of ``path``'s columns, distinct; default
-            ``scene.grippers``.
+            ``scene.gripper_pins``.
           orientations: ``(steps, len(pins), 4)`` unit quaternions (w, x, y, z), each gripper's turn from its start
             orientation at that row (see :meth:`move_gripper`: clamped grippers of a model with frames); step ``i``
             is then :meth:`move_gripper` of every gripper with ``path[i]`` and ``orientations[i]``, and one
@@ -376,6 +390,9 @@ class Simulator:
         rows, none = self._no_rows
         if orientations is None:
             return self._run(len(targets), rows, none, none, (pins, targets), bool(until_release))
+        if np.any(pins >= len(self.scene.pins)):
+            raise ValueError(f"orientations: free grippers (pins >= {len(self.scene.pins)}, got {pins.tolist()}) can't "
+                             "turn (they hold a point); move them in a path without orientations")
         turns = self._turns(orientations, targets.shape[:2])
         for i in range(len(targets)):  # (a model or pin that can't turn raises at the first row, before a step)
             released = self.released
@@ -405,7 +422,7 @@ class Simulator:
         return turns / norms[..., None]
 
     def _path_pins(self, pins) -> np.ndarray:
-        """``pins`` as a (G,) int64 array of distinct gripper pins (``None``: ``scene.grippers``).
+        """``pins`` as a (G,) int64 array of distinct gripper pins (``None``: ``scene.gripper_pins``).
 
         Raises:
           ValueError: not a sequence of distinct gripper pins."""
@@ -458,8 +475,8 @@ class Simulator:
         return Trajectory(times=times, positions=pos, velocities=vel)
 
     def reset(self) -> None:
-        """Back to the exact start state: positions, velocities, time, grippers and sockets, bit for bit (point
-        masses added with :meth:`add_point_mass` stay)."""
+        """Back to the exact start state: positions, velocities, time, grippers and sockets, bit for bit, every free
+        gripper open at its start position (point masses added with :meth:`add_point_mass` stay)."""
         self._backend.reset()
         self._start_steps()
 
@@ -475,7 +492,8 @@ class Simulator:
         that are not clamped, raise a ``ValueError`` when it is given."""
         grippers = self._grippers
         if isinstance(pin_number, bool) or pin_number not in grippers:
-            raise ValueError(f"pin_number must index a gripper pin, one of {grippers}, got {pin_number!r}")
+            raise ValueError(f"pin_number must index a gripper pin, one of {grippers} (free gripper g: len(scene.pins) "
+                             f"+ g), got {pin_number!r}")
         try:  # called once per step by environments: one conversion, no tuple round trip
             pos = np.array(position, dtype=np.float64)
         except (TypeError, ValueError):
@@ -485,6 +503,9 @@ class Simulator:
         if orientation is None:
             self._backend.move_gripper(int(pin_number), pos)
             return
+        if pin_number >= len(self.scene.pins):
+            raise ValueError(f"orientation: free gripper {pin_number - len(self.scene.pins)} (pin_number "
+                             f"{pin_number}) holds a point, it can't turn; drop orientation")
         try:
             quat = np.array(orientation, dtype=np.float64)
         except (TypeError, ValueError):
@@ -506,3 +527,73 @@ class Simulator:
         index = _validate.integer("index", index, low=-n, high=n - 1) % n
         mass = _validate.number("mass", mass, low=0.0, low_open=True, unit="kg")
         self._backend.add_point_mass(index, mass)
+
+    # -- free grippers --------------------------------------------------------------------------------------------
+
+    def grasp(self, g: int, index: Optional[int] = None) -> int:
+        """Close free gripper ``g`` (``scene.grippers[g]``) on particle ``index``: from the next step on the particle
+        follows the gripper, moved with ``move_gripper(len(scene.pins) + g, position)`` or :meth:`step_along`,
+        as a gripper pin's does, and :attr:`gripper_forces` reports what the gripper holds.
+
+        The particle is held where it is when the gripper closes, at a fixed offset from the gripper (zero when the
+        gripper was moved onto it first): closing never yanks the cable (:mod:`mjcable.backends.grasp`).
+
+        Args:
+          g: the free gripper, 0 <= g < ``len(scene.grippers)``.
+          index: the global particle index (negative counts from the end); ``None``: the particle nearest to the
+            gripper that no pin or other gripper holds.
+
+        Returns the grasped particle's global index.
+
+        Raises:
+          ValueError: ``g`` out of range or closed, ``index`` out of range or held by a pin or another gripper.
+
+        Example::
+
+            sim.grasp(0)   # the particle nearest to free gripper 0, moved as move_gripper(len(sim.scene.pins), ...)"""
+        g = self._free_gripper(g)
+        if self._grasped[g] is not None:
+            raise ValueError(f"g: free gripper {g} already holds particle {self._grasped[g]}; release it first")
+        held = self._held()
+        n = self.scene.n_particles
+        if index is None:
+            free = np.setdiff1d(np.arange(n), list(held))
+            if not len(free):
+                raise ValueError("index=None: every particle is held already; release one first")
+            gripper = self.gripper_positions[len(self.scene.gripper_pins) + g]
+            index = int(free[np.argmin(np.linalg.norm(self._positions[free] - gripper, axis=1))])
+        else:
+            index = _validate.integer("index", index, low=-n, high=n - 1) % n
+            if index in held:
+                raise ValueError(f"index: particle {index} is held by {held[index]} already; grasp another particle")
+        self._backend.grasp(g, index)
+        self._grasped[g] = index
+        return index
+
+    def release(self, g: int) -> int:
+        """Open free gripper ``g``: its particle is free from the next step on (with the velocity it has).
+
+        Returns the particle it held.
+
+        Raises:
+          ValueError: ``g`` out of range, or the gripper open already."""
+        g = self._free_gripper(g)
+        index = self._grasped[g]
+        if index is None:
+            raise ValueError(f"g: free gripper {g} holds nothing (it is open); grasp before releasing")
+        self._backend.release(g)
+        self._grasped[g] = None
+        return index
+
+    def _free_gripper(self, g) -> int:
+        """``g`` checked as a free gripper's number."""
+        if not self.scene.grippers:
+            raise ValueError("g: the scene has no free grippers; give Scene(..., grippers=(mjcable.Gripper(position),))")
+        return _validate.integer("g", g, low=0, high=len(self.scene.grippers) - 1)
+
+    def _held(self) -> dict:
+        """Particle -> what holds it: the scene's pins (but released sockets) and the closed free grippers."""
+        held = {self.scene.pin_particle(k): f"pins[{k}]" for k in range(len(self.scene.pins))
+                if k not in self.released}
+        held.update({i: f"free gripper {g}" for g, i in enumerate(self._grasped) if i is not None})
+        return held

@@ -97,7 +97,7 @@ def test_random_policy(task, model):
         if not time_step.first():
             assert 0.0 <= time_step.reward <= 1.0, time_step.reward
         workspace = env.physics.workspace
-        for k in env.physics.scene.grippers:
+        for k in env.physics.scene.gripper_pins:
             excess = workspace.violation(k, env.physics.pin_positions()[k], env.physics.pin_positions(),
                                          env.physics.pins_engaged())
             assert excess <= 1e-9, (k, excess)
@@ -444,7 +444,7 @@ def test_compiled_clamp_agrees_with_the_previous_implementation():
     pins = np.array([cable.particles[scene.pin_particle(k)] for k in range(len(scene.pins))])
     stopped = 0
     for _ in range(300):
-        k = int(rng.choice(scene.grippers))
+        k = int(rng.choice(scene.gripper_pins))
         engaged = rng.uniform(size=len(pins)) < 0.7
         start = pins[k] + rng.normal(scale=0.3, size=3)
         displacement = rng.normal(scale=0.04, size=3)  # up to several increments of half the clearance
@@ -459,7 +459,7 @@ def test_compiled_clamp_agrees_with_the_previous_implementation():
     # whole control steps: both grippers moved in turn, nstep times, each seeing the other's new position
     for _ in range(30):
         engaged = rng.uniform(size=len(pins)) < 0.7
-        commands = {k: rng.normal(scale=0.05, size=3) for k in rng.permutation(scene.grippers).tolist()}
+        commands = {k: rng.normal(scale=0.05, size=3) for k in rng.permutation(scene.gripper_pins).tolist()}
         nstep = int(rng.integers(1, 12))
         start = pins.copy()
         positions, moved = workspace.paths(commands, nstep, start, engaged)

@@ -39,7 +39,7 @@ def _state(sim) -> dict:
 def _run(scene, model: str, chunks: int) -> dict:
     """The state after a gripper move (for scenes with a gripper) and ``SECONDS`` of steps in ``chunks`` calls."""
     sim = mjcable.Simulator(scene, model)
-    for pin in scene.grippers:
+    for pin in scene.gripper_pins:
         sim.move_gripper(pin, sim.gripper_positions[0] + [0.03, 0.0, 0.02])  # spread over the next step
     for _ in range(chunks):
         sim.step(SECONDS / chunks)

@@ -48,7 +48,7 @@ def test_pins_count_within_their_cable():
     assert [scene.pin_particle(k) for k in range(4)] == [0, 17, 21, 10]
     assert [scene.pin_cable(k) for k in range(4)] == [0, 1, 2, 0]
     np.testing.assert_array_equal(scene.particles[scene.pin_particle(1)], B_.particles[-1])
-    assert scene.grippers == (2,)
+    assert scene.gripper_pins == (2,)
 
 
 def test_clamp_neighbour_stays_in_the_pins_cable():

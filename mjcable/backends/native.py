@@ -26,9 +26,10 @@ import mujoco
 import numpy as np
 
 from mjcable import monitor
+from mjcable.backends.grasp import NativeGrasps
 from mjcable.backends.native_energy import CableEnergy
 from mjcable.backends.protocol import Energy, RunResult
-from mjcable.mjcf import cables, data, joints, world
+from mjcable.mjcf import cables, data, grasp, joints, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
@@ -64,6 +65,8 @@ def spec_builder(generate: Callable[..., mujoco.MjSpec], *,
                 made = cables.assemble(scene, generate, model, frames=frames, **options)
             else:
                 made = generate(scene, **options)
+            if scene.grippers:
+                grasp.add_free_grippers(made, scene, timestep=options["timestep"])
             spec = world.finish(made, scene)
         if not scene.obstacles and scene.world is None and not settings.self_collision and len(scene.cables) == 1:
             spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
@@ -112,8 +115,11 @@ class NativeBackend:
         self._has_frames = entry.frames
         self._gripper_mocap = np.array([int(m.body_mocapid[_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
                                                                      cables.pin_name(scene, k, world.gripper_body))])
-                                        for k in scene.grippers], dtype=np.int64)
-        self._mocap_of_pin = dict(zip(scene.grippers, self._gripper_mocap.tolist()))
+                                        for k in scene.gripper_pins], dtype=np.int64)
+        self._grasps = NativeGrasps(scene, m, self.mj_data, self._equality_force)
+        self._gripper_mocap = np.concatenate([self._gripper_mocap, self._grasps.mocap])  # the free grippers follow
+        free = range(len(scene.pins), len(scene.pins) + len(scene.grippers))
+        self._mocap_of_pin = dict(zip(scene.gripper_pins + tuple(free), self._gripper_mocap.tolist()))
         # pin k -> (equality ids of pin{k}, pin{k}_clamp and pin{k}_roll, -1 where absent)
         self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY,
                                            cables.pin_name(scene, k, world.pin_equality, clamp=c, roll=r))
@@ -486,6 +492,15 @@ class NativeBackend:
         mujoco.mj_forward(m, d)
         self._refresh()
         self._added[index] += mass
+
+    def grasp(self, g: int, index: int) -> None:
+        self._grasps.grasp(g, index)
+
+    def release(self, g: int) -> None:
+        self._grasps.release(g)
+
+    def gripper_forces(self) -> np.ndarray:
+        return self._grasps.forces()
 
     @property
     def released(self) -> set:

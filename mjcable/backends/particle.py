@@ -23,6 +23,7 @@ import mujoco
 import numpy as np
 
 from mjcable.backends import host as host_world
+from mjcable.backends.grasp import ParticleGrasps, add_pin_rows
 from mjcable import monitor
 from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Energy, RunResult
 from mjcable.mjcf import proxy, world
@@ -77,6 +78,8 @@ class ParticleBackend:
         n_particles = scene.cable.n_particles
         self._user = [(c, c.resolved(n_particles)) for c in getattr(s, "constraints", ())]
         a = self.arrays = chain_arrays(scene, self.rules, s, dt)
+        add_pin_rows(a, scene)  # an inactive pin row per free gripper
+        self._grasps = ParticleGrasps(scene, a)
         self._par = a.par[0]  # the parameter record (a view: reads and writes go to the state)
         self._limits = lim = monitor.limits(scene, entry)
         for name, value in dict(max_distance=MAX_DISTANCE, max_speed=MAX_SPEED, strain_fail=lim.strain_fail,
@@ -97,13 +100,15 @@ class ParticleBackend:
         if not np.array_equal(sites, np.arange(sites[0], sites[0] + n_particles)):  # pragma: no cover
             raise RuntimeError("proxy particle sites must be contiguous")
         self._site_pos = d.site_xpos[sites[0]:sites[0] + n_particles]
+        grippers = scene.gripper_pins + tuple(range(len(scene.pins), len(scene.pins) + len(scene.grippers)))
         gripper_mocap = np.array([int(m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
                                                                        world.gripper_body(k))])
-                                  for k in scene.grippers], dtype=np.int64)
+                                  for k in grippers], dtype=np.int64)  # (the free grippers' bodies follow the pins')
         self._gripper_mocap = gripper_mocap
-        self._mocap_of_pin = dict(zip(scene.grippers, gripper_mocap.tolist()))
-        self._pin_mocap = np.full(len(scene.pins), -1, dtype=np.int64)  # pin -> its gripper's mocap id (-1: none)
-        self._pin_mocap[list(scene.grippers)] = gripper_mocap
+        self._mocap_of_pin = dict(zip(grippers, gripper_mocap.tolist()))
+        # pin (or free gripper) -> its gripper's mocap id (-1: none)
+        self._pin_mocap = np.full(len(scene.pins) + len(scene.grippers), -1, dtype=np.int64)
+        self._pin_mocap[list(grippers)] = gripper_mocap
         a.update(pose_pos=d.mocap_pos[:n], pose_quat=d.mocap_quat[:n])  # views: the proxy is posed in place
         world.reset_to_start(m, d)
         mujoco.mj_kinematics(m, d)  # the obstacles' poses, which ObstacleContacts reads
@@ -165,6 +170,7 @@ class ParticleBackend:
                 self._obstacles.disable()
         self._par["time"] = d.time
         self.released = set()
+        self._grasps.reset()
         self._sync()
 
     # -- the steps ------------------------------------------------------------------------------------------------
@@ -173,7 +179,8 @@ class ParticleBackend:
             path: Optional[tuple] = None, until_release: bool = False) -> RunResult:
         """:meth:`mjcable.backends.protocol.Backend.run` in one compiled call (:func:`kernels.run_steps`), returning
         to Python only for a contact query the C API can't make, or, with PBD's user constraints, step by step."""
-        pins, targets = _NO_PATH if path is None else path
+        path_pins, path_targets = _NO_PATH if path is None else path
+        pins, targets = self._grasps.path(path_pins, path_targets)  # (free grippers: held ones shifted, open ones out)
         par = self._par
         t0 = time.perf_counter()
         if self._user:
@@ -204,8 +211,8 @@ class ParticleBackend:
                 if failure is not None or outcome == layout.RUN_RELEASED:
                     break
         t1 = time.perf_counter()
-        if done and len(targets):  # the grippers' mocap bodies where the loop sent them (pin_to holds it)
-            self.mj_data.mocap_pos[self._pin_mocap[pins]] = self.arrays.pin_to[pins]
+        if done and len(path_targets):  # the grippers' mocap bodies where the loop sent them
+            self.mj_data.mocap_pos[self._pin_mocap[path_pins]] = path_targets[min(done, len(path_targets)) - 1]
         if self._host is None:  # a user world's mj_step keeps the time
             self.mj_data.time = par["time"]
         self._sync()
@@ -228,7 +235,7 @@ class ParticleBackend:
         return found
 
     def _note_released(self) -> None:
-        self.released.update(int(k) for k in np.flatnonzero(~self.arrays.pin_active))
+        self.released.update(int(k) for k in np.flatnonzero(~self.arrays.pin_active[:len(self.scene.pins)]))
 
     def _python_query(self) -> None:
         """The next step's obstacle contacts through the bindings (:meth:`ObstacleContacts.query`), at the margin the
@@ -343,7 +350,10 @@ class ParticleBackend:
             start = self._start["q"][a.clamp_seg[row]]
             a.clamp_qto[row] = quat_mul(orientation, start)
             self.mj_data.mocap_quat[self._mocap_of_pin[k]] = orientation
-        a.pin_to[k] = position
+        if k < len(self.scene.pins):
+            a.pin_to[k] = position
+        else:
+            self._grasps.move(k - len(self.scene.pins), position)
         self.mj_data.mocap_pos[self._mocap_of_pin[k]] = position
 
     def frames(self) -> np.ndarray:
@@ -368,11 +378,25 @@ class ParticleBackend:
         ∇Cᵀλ / h² over the constraints on the held particle, plus its weight; a host body pin's coupling force).
         Sockets let go on this same mean (:func:`mjcable.solvers.kernels._pin_forces`). Zero rows before the first
         step and for released sockets."""
+        return self._pin_rows()[:len(self.scene.pins)]
+
+    def _pin_rows(self) -> np.ndarray:
+        """``(P + n_free, 3)`` N: the mean force of every pin row over the last step (zero for inactive rows)."""
         a = self.arrays
         count = a.pin_count[:, None]
         f = np.divide(a.pin_sum, count, out=np.zeros((len(count), 3)), where=count > 0)
         f[~a.pin_active] = 0.0
         return f
+
+    def grasp(self, g: int, index: int) -> None:
+        self._grasps.grasp(g, index, self.mj_data.mocap_pos[self._gripper_mocap[len(self.scene.gripper_pins) + g]])
+
+    def release(self, g: int) -> None:
+        self._grasps.release(g)
+
+    def gripper_forces(self) -> np.ndarray:
+        """``(n_free, 3)`` N: each free gripper's force on its particle, as :meth:`pin_forces` (0 while open)."""
+        return self._grasps.forces(self._pin_rows())
 
     def pin_torques(self) -> np.ndarray:
         """A clamp's torque about its particle p: (x_q − x_p) × f_q, f_q = Σₘ ∇_q Cₘ λₘ / h² the clamp's force on

@@ -118,12 +118,21 @@ class Backend(Protocol):
         """``(n_pins, 3)`` torque in N·m each pin exerts on the cable about its pinned particle (clamps)."""
 
     def gripper_positions(self) -> np.ndarray:
-        """``(n_grippers, 3)`` commanded gripper positions in metres, in ``scene.grippers`` order."""
+        """``(n_grippers, 3)`` commanded gripper positions in metres, in ``scene.gripper_pins`` order."""
 
     def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
         """Send the gripper of ``scene.pins[k]`` to ``position`` (3,) over the next step, and (a model with frames,
         a clamped gripper) turn it to the unit quaternion ``orientation`` (4,) (w, x, y, z); ``orientation`` given
         to a model that can't honour it raises a ``ValueError``."""
+
+    def grasp(self, g: int, index: int) -> None:
+        """Close free gripper ``g`` on particle ``index`` (validated by the Simulator), held where it is."""
+
+    def release(self, g: int) -> None:
+        """Open free gripper ``g`` (closed: validated by the Simulator)."""
+
+    def gripper_forces(self) -> np.ndarray:
+        """``(n_free_grippers, 3)`` force in newtons each free gripper exerts on its particle (zero while open)."""
 
     def frames(self) -> np.ndarray:
         """``(n_segments, 4)`` material frames (w, x, y, z) of the segments; a ``ValueError`` for models without."""

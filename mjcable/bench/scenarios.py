@@ -158,7 +158,7 @@ class Scenario:
         sample of the state (before each step until ``drive_end``), e.g. a disturbance; a gripper that follows a
         known path is a ``gripper_path`` instead.
       gripper_path: optional ``(scene, times, params) → path``: the grippers' positions (``(steps, G, 3)``, metres,
-        ``scene.grippers`` order) commanded before the steps that start at ``times`` (``(steps,)``, s); the runner
+        ``scene.gripper_pins`` order) commanded before the steps that start at ``times`` (``(steps,)``, s); the runner
         hands it to :meth:`mjcable.Simulator.step_along` until ``drive_end``, after which the grippers stay.
       gripper_turns: optional ``(scene, times, params) → orientations`` (``(steps, G, 4)`` unit quaternions) that go
         with ``gripper_path`` (``step_along``'s ``orientations``).

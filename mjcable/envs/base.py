@@ -129,7 +129,7 @@ class CablePhysics(mujoco.Physics):
     def _attach(self, simulator: Simulator) -> None:
         self._sim = simulator
         scene = simulator.scene
-        self._grippers = list(scene.grippers)
+        self._grippers = list(scene.gripper_pins)
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]  # the pins that can let go
         anchors = [scene.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
         self._anchors = np.array(anchors, dtype=np.float64).reshape(-1, 3)  # the pins' start particles (the scene's)
@@ -157,7 +157,7 @@ class CablePhysics(mujoco.Physics):
             sim.reset()
         self._commands = {}
         pins, engaged = self.pin_positions(), self.pins_engaged()
-        for k in scene.grippers:
+        for k in scene.gripper_pins:
             excess = workspace.violation(k, pins[k], pins, engaged)
             if excess > 0.0:
                 raise ValueError(f"gripper of pin {k} starts {excess:.3g} m outside its workspace at "
@@ -285,7 +285,7 @@ class CablePhysics(mujoco.Physics):
         return self._sim.positions[self.scene.cable_slices[c]]
 
     def gripper_positions(self) -> np.ndarray:
-        """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.grippers``."""
+        """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.gripper_pins``."""
         return self._sim.gripper_positions
 
     def anchors(self) -> np.ndarray:
@@ -296,7 +296,7 @@ class CablePhysics(mujoco.Physics):
         """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the other pins
         (world pins, sockets) at their start particles."""
         pins = self._anchors.copy()
-        pins[self._gripper_rows] = self._sim.gripper_positions
+        pins[self._gripper_rows] = self._sim.gripper_positions[:len(self._gripper_rows)]  # (free grippers follow)
         return pins
 
     def pins_engaged(self) -> np.ndarray:

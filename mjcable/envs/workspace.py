@@ -77,7 +77,7 @@ class Workspace:
         object.__setattr__(self, "high", tuple(high))
         object.__setattr__(self, "clearance", float(self.clearance))
         object.__setattr__(self, "_box", np.array([low, high]))  # (2, 3) m
-        tethers = {k: self._make_tethers(k) for k in self.scene.grippers}
+        tethers = {k: self._make_tethers(k) for k in self.scene.gripper_pins}
         n_pins = len(self.scene.pins)
         tether_max = np.full((n_pins, n_pins), np.inf)
         for k, ts in tethers.items():
@@ -125,7 +125,7 @@ class Workspace:
     def _check_grippers(self, grippers: Sequence[int]) -> None:
         for k in grippers:
             if isinstance(k, bool) or k not in self._tethers:
-                raise ValueError(f"k must be a gripper pin, one of {self.scene.grippers}, got {k!r}")
+                raise ValueError(f"k must be a gripper pin, one of {self.scene.gripper_pins}, got {k!r}")
 
     def _holding(self, grippers: Sequence[int], engaged: Sequence[bool]) -> np.ndarray:
         """``(n_pins, n_pins)`` m: the tethers that hold (rows of grippers, columns of engaged pins), ``inf`` where

@@ -4,6 +4,7 @@
 * :mod:`~mjcable.mjcf.springs`, :mod:`~mjcable.mjcf.joints`, :mod:`~mjcable.mjcf.composite`,
   :mod:`~mjcable.mjcf.flexrod`: MuJoCo's native cable models;
 * :mod:`~mjcable.mjcf.proxy`: the particle solvers' proxy (one capsule per segment, for contacts and rendering);
+* :mod:`~mjcable.mjcf.grasp`: the free grippers (``Scene.grippers``) every model gets;
 * :mod:`~mjcable.mjcf.settings`: the native models' settings dataclasses;
 * :mod:`~mjcable.mjcf.snap`: round-off snapping, so that a generated model is the same on every machine.
 
@@ -11,6 +12,6 @@
 model from the catalogue.
 """
 
-from mjcable.mjcf import composite, flexrod, joints, proxy, settings, snap, springs, world
+from mjcable.mjcf import composite, flexrod, grasp, joints, proxy, settings, snap, springs, world
 
-__all__ = ["world", "springs", "joints", "composite", "flexrod", "proxy", "settings", "snap"]
+__all__ = ["world", "springs", "joints", "composite", "flexrod", "proxy", "settings", "snap", "grasp"]

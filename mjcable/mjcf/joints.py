@@ -349,7 +349,7 @@ def relative_quats(frames: np.ndarray) -> np.ndarray:
 
 
 def add_anchors(spec: mujoco.MjSpec, scene: Scene) -> None:
-    """``world.add_anchor`` for every pin, in pin order (so mocap ids follow ``scene.grippers``)."""
+    """``world.add_anchor`` for every pin, in pin order (so mocap ids follow ``scene.gripper_pins``)."""
     for k in range(len(scene.pins)):
         world.add_anchor(spec, scene, k)
 
@@ -525,7 +525,7 @@ def _add_start_key(spec: mujoco.MjSpec, scene: Scene, qpos: np.ndarray) -> None:
     world's start by :func:`mjcable.mjcf.world.finish`)."""
     start = scene.world.start_state() if scene.world is not None else None
     n_qpos, n_mocap = (len(start["qpos"]), len(start["mpos"])) if start is not None else (0, 0)
-    mocap = [np.zeros(3)] * n_mocap + [scene.cable.particles[scene.pin_particle(k)] for k in scene.grippers]
+    mocap = [np.zeros(3)] * n_mocap + [scene.cable.particles[scene.pin_particle(k)] for k in scene.gripper_pins]
     key = spec.add_key(name=START_KEY, qpos=np.concatenate([np.zeros(n_qpos), qpos]))
     if mocap:
         key.mpos = np.concatenate(mocap)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mjcable.mjcf import snap, world
+from mjcable.mjcf import grasp, snap, world
 from mjcable.scene import Scene
 
 __all__ = ["build", "segment_name", "user_collision_geoms", "PROXY_KINDS", "DEFAULT_MARGIN"]
@@ -85,6 +85,7 @@ def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, pr
         world.add_anchor(spec, scene, k)
         if pin.kind == "body" and pin.clamp:
             world.add_clamp_anchor(spec, scene, k)
+    grasp.add_free_grippers(spec, scene)
     return snap.snap_spec(spec)
 
 
