@@ -13,7 +13,7 @@ import mjcable
 from mjcable.bench import contact
 from mjcable.bench.case import Case
 from mjcable.bench.runner import run_case
-from mjcable.solvers import contact_kernels, kernels_layout
+from mjcable.solvers import cable_contact_kernels, contact_kernels, kernels_layout
 
 G = 9.81
 CAPSTAN_MU = 0.3  # the rope over a peg: long/short < e^{0.3 π} ≈ 2.57 for a light rope
@@ -192,9 +192,10 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
         fric_impulse=np.zeros((4, 3)), fric_normal=np.zeros((4, 3)), fric_ob=np.zeros(4, dtype=np.int64),
         fric_unit=np.zeros((4, 3)), fric_push=np.zeros((4, 3)), fric_cone=np.zeros(4),
         fric_sole=np.zeros(4, dtype=np.bool_),
-        anchor=np.zeros((4, 3)), anchor_ob=np.full(4, -1, dtype=np.int64))
+        anchor=np.zeros((4, 3)), anchor_ob=np.full(4, -1, dtype=np.int64),
+        seg_cable=np.zeros(3, dtype=np.int64), cable_mu=np.array([mu]))
     par = a["par"][0]
-    par["radius"], par["mu_self"], par["n_con"], par["n_self"], par["h"] = r, mu, 1, 1, h
+    par["radius"], par["n_con"], par["n_self"], par["h"] = r, 1, 1, h
     x, x0 = a["x"], a["x0"]
     centre = []
     for _ in range(steps):
@@ -205,7 +206,7 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
             if self_contact:
                 a["self_lam_n"][:] = 0.0
                 a["self_lam_t"][:] = 0.0
-                contact_kernels.self_contact_sweep(S)
+                cable_contact_kernels.self_contact_sweep(S)
             else:
                 a["con_lam"][:] = 0.0
                 _plane_contact(S)
