@@ -66,6 +66,8 @@ class ModelEntry:
       rest_shapes: the ``CableSpec.rest_shape`` values it honours.
       frames: it has material frames (:attr:`mjcable.Simulator.frames`, a gripper's ``orientation``).
       sections: it bends anisotropically (``CableSpec.section`` with unequal semi-axes).
+      several_cables: it simulates a scene of several cables (``Scene(cable=(...))``), with contacts between them.
+      junctions: it joins cables at ``Scene.junctions`` (and closes loops).
     """
 
     name: str
@@ -81,6 +83,8 @@ class ModelEntry:
     rest_shapes: tuple = ("straight",)
     frames: bool = False
     sections: bool = False
+    several_cables: bool = False
+    junctions: bool = False
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
@@ -205,14 +209,30 @@ def check_substep(dt: float, settings) -> None:
 
 
 def check_scene(scene: Scene, model: str) -> None:
-    """What model ``model`` can't honour of ``scene``'s cable: a ``rest_shape`` it has no means for, or an
-    anisotropic ``section`` for a model that bends isotropically, is a ``ValueError``; a ``shear_modulus`` given to a model without a twist stiffness of its own a warning.
+    """What model ``model`` can't honour of ``scene``: several cables or junctions for a model that takes one cable,
+    a cable's ``rest_shape`` it has no means for, or an anisotropic ``section`` for a model that bends isotropically,
+    is a ``ValueError``; a ``shear_modulus`` given to a model without a twist stiffness of its own a warning.
 
     Raises:
-      ValueError: naming ``rest_shape`` or ``section``, its value, what the model takes and the models that take it.
+      ValueError: naming what the model can't do (several cables, junctions, ``rest_shape`` or ``section``), the
+        scene's value, and the models that can.
     """
     entry = get(model)
-    cable = scene.cable
+    for capability, what, wanted in (("several_cables", f"several cables ({len(scene.cables)})",
+                                      len(scene.cables) > 1),
+                                     ("junctions", f"junctions ({len(scene.junctions)})", bool(scene.junctions))):
+        if wanted and not getattr(entry, capability):
+            takers = tuple(n for n, e in _REGISTRY.items() if getattr(e, capability))
+            raise ValueError(f"{model}: {what} in scene {scene.name!r}: model {model!r} does not simulate them yet; "
+                             f"use one of {takers}" if takers else
+                             f"{model}: {what} in scene {scene.name!r}: model {model!r} does not simulate them yet, "
+                             f"and no registered model does")
+    for cable in scene.cables:
+        _check_cable(cable, model, entry)
+
+
+def _check_cable(cable: CableSpec, model: str, entry: ModelEntry) -> None:
+    """:func:`check_scene` of one cable."""
     if cable.rest_shape not in entry.rest_shapes:
         takers = tuple(n for n, e in _REGISTRY.items() if cable.rest_shape in e.rest_shapes)
         raise ValueError(f"rest_shape must be one of {entry.rest_shapes} for model {model!r}, got "
@@ -224,7 +244,7 @@ def check_scene(scene: Scene, model: str) -> None:
     if cable.shear_modulus is not None and not entry.twist:
         warnings.warn(f"model {model!r} has no torsional stiffness of its own: CableSpec.shear_modulus = "
                       f"{cable.shear_modulus:g} Pa is not used (models with twist: "
-                      f"{tuple(n for n, e in _REGISTRY.items() if e.twist)})", stacklevel=3)
+                      f"{tuple(n for n, e in _REGISTRY.items() if e.twist)})", stacklevel=4)
 
 
 def build(scene: Scene, model: str, *, dt: float = 0.002, **settings) -> mujoco.MjSpec:

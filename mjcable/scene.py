@@ -1,11 +1,12 @@
-"""The scene description: one cable, its pins and the obstacles around it.
+"""The scene description: one cable or several, their pins and junctions, and the obstacles around them.
 
 Frozen dataclasses in SI units, validated on construction. Gravity is −9.81 m/s² along z. A :class:`Scene` is the
 single source of truth from which every cable model (MuJoCo's native ones and the particle solvers) is built.
 
 Construction checks what no model could simulate: a cable of more than :data:`MAX_SEGMENTS` segments, a cable that
-starts inside an obstacle (deeper than :data:`START_CONTACT_TOLERANCE`), and warns about a cable thicker than its
-segments are long.
+starts inside an obstacle (deeper than :data:`START_CONTACT_TOLERANCE`), a junction whose particles start apart, and
+warns about a cable thicker than its segments are long. Pins and junctions live in :mod:`mjcable.joins`, obstacles in
+:mod:`mjcable.obstacles` (both re-exported here).
 """
 
 from __future__ import annotations
@@ -15,11 +16,13 @@ import dataclasses
 import functools
 import math
 import warnings
-from typing import ClassVar, Optional, Tuple
+from typing import Optional
 
 import numpy as np
 
 from mjcable import _validate, geometry, spline
+from mjcable.joins import BODY_PIN_TOLERANCE, JUNCTION_TOLERANCE, PIN_KINDS, Junction, Pin
+from mjcable.obstacles import Box, Capsule, Cylinder, Floor, Obstacle, Sphere
 
 __all__ = [
     "GRAVITY",
@@ -38,14 +41,14 @@ __all__ = [
     "MAX_SEGMENTS",
     "START_CONTACT_TOLERANCE",
     "BODY_PIN_TOLERANCE",
+    "Junction",
+    "JUNCTION_TOLERANCE",
     "BODY_PIN_REACH",
 ]
 
 GRAVITY = np.array([0.0, 0.0, -9.81])  # m/s²
 POISSON = 0.5  # Poisson's ratio ν of a cable whose shear_modulus is not given (an incompressible, rubber-like jacket)
 REST_SHAPES = ("straight", "start")
-PIN_KINDS = ("world", "gripper", "socket", "body")
-BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
 # particles either side of a body pin that never touch the pin's body: the cable's end starts touching (or inside)
 # the body it is fastened to
 BODY_PIN_REACH = 2
@@ -60,8 +63,6 @@ MAX_SEGMENTS = 100_000
 # 1000 m/s on the first step.
 START_CONTACT_TOLERANCE = 1e-6
 _ROUND_OFF = 1e-9  # relative: lengths equal to this are equal
-
-Vec3 = Tuple[float, float, float]
 
 
 def _set(obj, name, value):
@@ -264,137 +265,18 @@ class CableSpec:
 
 
 @dataclasses.dataclass(frozen=True)
-class Pin:
-    """Holds one cable particle.
-
-    Args:
-      index: particle index; negative values count from the end (``Pin(-1)`` is the last particle).
-      kind: ``"world"`` (fixed at its start position, free to rotate), ``"gripper"`` (attached to a mocap body moved
-        with :meth:`mjcable.Simulator.move_gripper`), ``"socket"`` (fixed until the pin's force exceeds
-        ``release_force``, then released for good) or ``"body"`` (held at the point ``offset`` fixed in the frame
-        of the scene world's body ``body``, which then feels the cable: see :class:`Scene`).
-      body: the world body of a ``"body"`` pin.
-      offset: ``(3,)`` m, the held point in ``body``'s frame; only for ``kind="body"``. At the start it must lie
-        within :data:`BODY_PIN_TOLERANCE` of the pinned particle.
-      clamp: also hold the cable's tangent at the pin (a cantilever root); a body clamp holds the direction the
-        tangent has at the start, expressed in the body's frame (a rod with frames, ``cosserat``: the whole frame,
-        and the body feels the rod's torque).
-      release_force: force in newtons above which a socket lets go (> 0); only for ``kind="socket"``.
-    """
-
-    index: int
-    kind: str = "world"
-    body: Optional[str] = dataclasses.field(default=None, kw_only=True)
-    offset: Vec3 = dataclasses.field(default=(0.0, 0.0, 0.0), kw_only=True)
-    clamp: bool = dataclasses.field(default=False, kw_only=True)
-    release_force: Optional[float] = dataclasses.field(default=None, kw_only=True)
-
-    def __post_init__(self):
-        _set(self, "index", _validate.integer("index", self.index))
-        _validate.choice("kind", self.kind, PIN_KINDS)
-        _set(self, "clamp", _validate.boolean("clamp", self.clamp))
-        _set(self, "offset", _validate.vec3("offset", self.offset, unit="m"))
-        if self.kind == "body":
-            if not isinstance(self.body, str) or not self.body:
-                raise ValueError(f"body is required for kind='body': the name of a body of the scene's world, "
-                                 f"got {self.body!r}")
-        else:
-            if self.body is not None:
-                raise ValueError(f"body applies only to kind='body', got body={self.body!r} for kind={self.kind!r}")
-            if any(self.offset):
-                raise ValueError(f"offset applies only to kind='body', got offset={self.offset!r} for "
-                                 f"kind={self.kind!r}")
-        if self.kind == "socket":
-            if self.release_force is None:
-                raise ValueError("release_force is required for a socket pin: the force in N above which it lets go")
-            _set(self, "release_force",
-                 _validate.number("release_force", self.release_force, low=0.0, low_open=True, unit="N"))
-        elif self.release_force is not None:
-            raise ValueError(f"release_force applies only to kind='socket', got {self.release_force!r} "
-                             f"for kind={self.kind!r}")
-
-
-@dataclasses.dataclass(frozen=True)
-class Obstacle:
-    """Base of the rigid, static obstacles. ``pos`` in metres, ``euler`` in degrees (MuJoCo's xyz convention),
-    ``friction`` the Coulomb μ of contacts with this obstacle (``None``: the cable's μ)."""
-
-    pos: Vec3 = dataclasses.field(default=(0.0, 0.0, 0.0), kw_only=True)
-    euler: Vec3 = dataclasses.field(default=(0.0, 0.0, 0.0), kw_only=True)
-    friction: Optional[float] = dataclasses.field(default=None, kw_only=True)
-
-    def __post_init__(self):
-        _set(self, "pos", _validate.vec3("pos", self.pos, unit="m"))
-        _set(self, "euler", _validate.vec3("euler", self.euler, unit="degrees"))
-        _set(self, "friction", _validate.optional_number("friction", self.friction, low=0.0))
-
-
-@dataclasses.dataclass(frozen=True)
-class Floor(Obstacle):
-    """An infinite plane through ``pos``, normal along the rotated z axis."""
-
-    shape: ClassVar[str] = "plane"
-
-
-@dataclasses.dataclass(frozen=True)
-class Box(Obstacle):
-    """A box with half-extents ``size`` in metres (a table is a box)."""
-
-    shape: ClassVar[str] = "box"
-    size: Vec3 = (0.5, 0.5, 0.05)
-
-    def __post_init__(self):
-        super().__post_init__()
-        size = _validate.vec3("size", self.size, unit="m")
-        if min(size) <= 0:
-            raise ValueError(f"size must be 3 positive half-extents in metres, got {self.size!r}")
-        _set(self, "size", size)
-
-
-@dataclasses.dataclass(frozen=True)
-class _Round(Obstacle):
-    radius: float = 0.05
-
-    def __post_init__(self):
-        super().__post_init__()
-        _set(self, "radius", _validate.number("radius", self.radius, low=0.0, low_open=True, unit="m"))
-
-
-@dataclasses.dataclass(frozen=True)
-class Sphere(_Round):
-    """A sphere of ``radius`` metres."""
-
-    shape: ClassVar[str] = "sphere"
-
-
-@dataclasses.dataclass(frozen=True)
-class Cylinder(_Round):
-    """A cylinder of ``radius`` and ``half_length`` metres along its local z axis."""
-
-    shape: ClassVar[str] = "cylinder"
-    half_length: float = 0.25
-
-    def __post_init__(self):
-        super().__post_init__()
-        _set(self, "half_length", _validate.number("half_length", self.half_length, low=0.0, low_open=True, unit="m"))
-
-
-@dataclasses.dataclass(frozen=True)
-class Capsule(Cylinder):
-    """A capsule of ``radius`` and cylinder ``half_length`` metres along its local z axis."""
-
-    shape: ClassVar[str] = "capsule"
-
-
-@dataclasses.dataclass(frozen=True)
 class Scene:
-    """A cable with its pins and obstacles. A scene has exactly the obstacles it lists: no implicit floor.
+    """Cables with their pins, junctions and obstacles. A scene has exactly the obstacles it lists: no implicit floor.
 
     Args:
-      cable: the cable.
-      pins: a sequence of pins on distinct particles.
-      obstacles: a sequence of static obstacles; the cable's start (its particles, grown by its radius) must lie
+      cable: the cable, or a non-empty sequence of cables. One cable (a ``CableSpec``, or a sequence of one) is kept
+        as the ``CableSpec`` itself; several are kept as a tuple. :attr:`cables` is always the tuple.
+      pins: a sequence of pins on distinct particles; ``Pin(index, cable=c)`` holds particle ``index`` of cable ``c``.
+      obstacles: a sequence of static obstacles; every cable's start (its particles, grown by its radius) must lie
         outside every one of them, up to :data:`START_CONTACT_TOLERANCE` (lying on a surface is fine).
+      junctions: a sequence of :class:`Junction` joining two particles of the cables into one point (a harness's
+        branch point; one cable's two ends: a loop); they must start within :data:`JUNCTION_TOLERANCE` of each
+        other.
       name: optional label (the built-in scenes set it).
       world: the user's MuJoCo world around the cable: an MJCF path (``str`` or ``os.PathLike``; relative asset
         paths resolve against its folder) or a ``mujoco.MjSpec`` (copied, never mutated); loaded once into a
@@ -403,37 +285,47 @@ class Scene:
         ``None``: only the listed obstacles.
       keyframe: the world's keyframe the simulation starts from (``None``: its default pose); only with ``world``.
 
+    Particles of several cables are numbered in cable order: cable ``c``'s particle ``i`` is the global particle
+    ``cable_slices[c].start + i`` of :attr:`particles` (and of a Simulator's positions).
+
     Raises:
-      ValueError: a bad pin or obstacle sequence, a pin out of range or two on one particle, a cable that starts
-        inside an obstacle (naming the obstacle, the particle and the depth), an unreadable world, an unknown
-        keyframe or body, or a body pin whose point starts more than :data:`BODY_PIN_TOLERANCE` from its particle.
+      ValueError: a bad cable, pin, junction or obstacle sequence, a pin or junction out of range, two pins on one
+        particle, a junction whose particles start apart, a cable that starts inside an obstacle (naming the
+        obstacle, the particle and the depth), an unreadable world, an unknown keyframe or body, or a body pin whose
+        point starts more than :data:`BODY_PIN_TOLERANCE` from its particle.
+
+    Example::
+
+        harness = Scene((trunk, leg), pins=(Pin(0), Pin(-1, cable=1)), junctions=(Junction((0, -1), (1, 0)),))
     """
 
     cable: CableSpec
     pins: tuple = ()
     obstacles: tuple = ()
+    junctions: tuple = dataclasses.field(default=(), kw_only=True)
     name: str = dataclasses.field(default="scene", kw_only=True)
     world: object = dataclasses.field(default=None, kw_only=True)
     keyframe: Optional[str] = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self):
-        if not isinstance(self.cable, CableSpec):
-            raise ValueError(f"cable must be a CableSpec, got {type(self.cable).__name__}")
+        _set(self, "cable", _cables(self.cable))
         pins = _sequence("pins", self.pins, Pin, "Pin instances, e.g. (Pin(0),)")
-        n = self.cable.n_particles
+        _set(self, "pins", pins)  # before pin_particle
         seen = {}
         for k, pin in enumerate(pins):
-            if not -n <= pin.index < n:
-                raise ValueError(f"pins[{k}].index must lie in [{-n}, {n - 1}] for a cable of {n} particles, "
-                                 f"got {pin.index}")
-            i = pin.index % n
+            self._check_end(f"pins[{k}]", pin.cable, pin.index)
+            i = self.pin_particle(k)
             if i in seen:
-                raise ValueError(f"two pins on one particle: pins[{seen[i]}] and pins[{k}] both hold particle {i}")
+                raise ValueError(f"two pins on one particle: pins[{seen[i]}] and pins[{k}] both hold particle "
+                                 f"{i}{self._which(i)}")
             seen[i] = k
+        _set(self, "junctions", _sequence("junctions", self.junctions, Junction,
+                                          "Junction instances, e.g. (Junction((0, -1), (1, 0)),)"))
+        self._check_junctions()
         obstacles = _sequence("obstacles", self.obstacles, Obstacle,
                               "Floor, Box, Cylinder, Capsule or Sphere instances, e.g. (Floor(),)")
-        _check_start_clear(self.cable, obstacles)
-        _set(self, "pins", pins)
+        for c, cable in enumerate(self.cables):
+            _check_start_clear(cable, obstacles, self._named(c))
         _set(self, "obstacles", obstacles)
         if not isinstance(self.name, str):
             raise ValueError(f"name must be a str, got {self.name!r}")
@@ -450,10 +342,107 @@ class Scene:
 
             _set(self, "world", user_world.load(self.world, keyframe=self.keyframe))
             self._check_body_pins()
-            self._check_start_clear_of_world()
+            for c in range(len(self.cables)):
+                self._check_start_clear_of_world(c)
+
+    # -- cables ---------------------------------------------------------------------------------------------------
+
+    @property
+    def cables(self) -> tuple:
+        """The scene's cables, a tuple of :class:`CableSpec` (one or more)."""
+        return (self.cable,) if isinstance(self.cable, CableSpec) else self.cable
+
+    @functools.cached_property
+    def cable_slices(self) -> tuple:
+        """One ``slice`` per cable into the particles of all cables in cable order (:attr:`particles`, a Simulator's
+        positions), e.g. ``(slice(0, 51), slice(51, 102))``."""
+        ends = np.cumsum([0] + [c.n_particles for c in self.cables]).tolist()
+        return tuple(slice(a, b) for a, b in zip(ends[:-1], ends[1:]))
+
+    @property
+    def n_particles(self) -> int:
+        """Σ (nᵢ + 1): the particles of all cables."""
+        return self.cable_slices[-1].stop
+
+    @functools.cached_property
+    def particles(self) -> np.ndarray:
+        """``(n_particles, 3)`` m: every cable's start positions, in cable order (read-only)."""
+        if isinstance(self.cable, CableSpec):
+            return self.cable.particles
+        p = np.concatenate([c.particles for c in self.cables])
+        p.setflags(write=False)
+        return p
+
+    def _global(self, cable: int, index: int) -> int:
+        """The global particle index of particle ``index`` (negative from the end) of cable ``cable``."""
+        return self.cable_slices[cable].start + index % self.cables[cable].n_particles
+
+    def _named(self, c: int) -> str:
+        """``" of cable c"`` in a scene of several cables, nothing for one."""
+        return "" if isinstance(self.cable, CableSpec) else f" of cable {c}"
+
+    def _which(self, i: int) -> str:
+        """`` (cable c, index k)`` for global particle ``i`` in a scene of several cables, nothing for one."""
+        if isinstance(self.cable, CableSpec):
+            return ""
+        c = next(c for c, s in enumerate(self.cable_slices) if i < s.stop)
+        return f" (cable {c}, index {i - self.cable_slices[c].start})"
+
+    def _check_end(self, what: str, cable: int, index: int) -> None:
+        """Raise unless cable ``cable`` exists and has a particle ``index``."""
+        count = len(self.cables)
+        if cable >= count:
+            raise ValueError(f"{what}.cable must lie in [0, {count - 1}] (the scene's {count} cable(s)), got {cable}")
+        n = self.cables[cable].n_particles
+        if not -n <= index < n:
+            which = "a cable" if isinstance(self.cable, CableSpec) else f"cable {cable}"
+            raise ValueError(f"{what}.index must lie in [{-n}, {n - 1}] for {which} of {n} particles, got {index}")
+
+    # -- pins and junctions ---------------------------------------------------------------------------------------
+
+    def pin_particle(self, k: int) -> int:
+        """The global particle index (non-negative, into :attr:`particles`) held by ``pins[k]``."""
+        pin = self.pins[k]
+        return self._global(pin.cable, pin.index)
+
+    def pin_cable(self, k: int) -> int:
+        """The cable (an index into :attr:`cables`) that ``pins[k]`` holds."""
+        return self.pins[k].cable
+
+    def clamp_neighbour(self, k: int) -> int:
+        """The global particle next to a clamped pin, towards its cable's inside, that fixes its tangent."""
+        pin = self.pins[k]
+        i = pin.index % self.cables[pin.cable].n_particles
+        return self._global(pin.cable, i + 1 if i < self.cables[pin.cable].n_segments else i - 1)
+
+    def junction_particles(self, j: int) -> tuple:
+        """``(a, b)``: the global particle indices that ``junctions[j]`` joins."""
+        junction = self.junctions[j]
+        return self._global(*junction.a), self._global(*junction.b)
+
+    def _check_junctions(self) -> None:
+        pairs = {}
+        for j, junction in enumerate(self.junctions):
+            for end in ("a", "b"):
+                self._check_end(f"junctions[{j}].{end}", *getattr(junction, end))
+            a, b = self.junction_particles(j)
+            if a == b:
+                raise ValueError(f"junctions[{j}] joins particle {a}{self._which(a)} to itself: a junction joins two "
+                                 f"distinct particles")
+            if (min(a, b), max(a, b)) in pairs:
+                raise ValueError(f"junctions[{pairs[min(a, b), max(a, b)]}] and junctions[{j}] both join particles "
+                                 f"{a} and {b}: give each pair once")
+            pairs[min(a, b), max(a, b)] = j
+            p = self.particles
+            gap = float(np.linalg.norm(p[a] - p[b]))
+            if gap > JUNCTION_TOLERANCE:
+                raise ValueError(
+                    f"junctions[{j}]: its particles {junction.a} at {np.round(p[a], 6).tolist()} and {junction.b} at "
+                    f"{np.round(p[b], 6).tolist()} start {gap:.4g} m apart (allowed: {JUNCTION_TOLERANCE:g} m); "
+                    f"start the two cables' points there at one point")
 
     def _check_body_pins(self) -> None:
-        p = self.cable.particles
+        p = self.particles
         for k, pin in enumerate(self.pins):
             if pin.kind != "body":
                 continue
@@ -463,26 +452,28 @@ class Scene:
             if miss > BODY_PIN_TOLERANCE:
                 raise ValueError(
                     f"pins[{k}]: the point offset={pin.offset} of body {pin.body!r} starts at "
-                    f"{np.round(point, 6).tolist()}, {miss:.4g} m from particle {i} at {np.round(p[i], 6).tolist()} "
-                    f"(allowed: {BODY_PIN_TOLERANCE:g} m); move the cable's end or change the offset")
+                    f"{np.round(point, 6).tolist()}, {miss:.4g} m from particle {i}{self._which(i)} at "
+                    f"{np.round(p[i], 6).tolist()} (allowed: {BODY_PIN_TOLERANCE:g} m); move the cable's end or "
+                    f"change the offset")
 
-    def _check_start_clear_of_world(self) -> None:
-        """Raise if the cable's surface starts more than :data:`START_CONTACT_TOLERANCE` inside a geom of the world
+    def _check_start_clear_of_world(self, c: int) -> None:
+        """Raise if cable ``c``'s surface starts more than :data:`START_CONTACT_TOLERANCE` inside a geom of the world
         that it can collide with. A pinned particle may start inside a geom (a plug in its socket: its pin holds it),
         and the particles within :data:`BODY_PIN_REACH` of a body pin never touch its body."""
-        n = self.cable.n_particles
-        ignore = [(pin.body, range(max(self.pin_particle(k) - BODY_PIN_REACH, 0),
-                                   min(self.pin_particle(k) + BODY_PIN_REACH + 1, n)))
-                  for k, pin in enumerate(self.pins) if pin.kind == "body"]
-        held = [self.pin_particle(k) for k in range(len(self.pins))]
-        deepest = self.world.start_depth(self.cable.particles, self.cable.radius, ignore, held)
+        cable = self.cables[c]
+        n = cable.n_particles
+        ours = [k for k, pin in enumerate(self.pins) if pin.cable == c]
+        local = {k: self.pins[k].index % n for k in ours}
+        ignore = [(self.pins[k].body, range(max(local[k] - BODY_PIN_REACH, 0), min(local[k] + BODY_PIN_REACH + 1, n)))
+                  for k in ours if self.pins[k].kind == "body"]
+        deepest = self.world.start_depth(cable.particles, cable.radius, ignore, local.values())
         if deepest is not None and deepest.depth > START_CONTACT_TOLERANCE:
             i = deepest.particle
             raise ValueError(
-                f"world geom {deepest.geom!r} (body {deepest.body!r}) holds the cable's start: particle {i} at "
-                f"{np.round(self.cable.particles[i], 6).tolist()} is {deepest.depth:.4g} m deep (the cable's radius "
-                f"{self.cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move the geom, "
-                f"the world's start pose (keyframe) or the cable's points")
+                f"world geom {deepest.geom!r} (body {deepest.body!r}) holds the cable's start: particle {i}"
+                f"{self._named(c)} at {np.round(cable.particles[i], 6).tolist()} is {deepest.depth:.4g} m deep (the "
+                f"cable's radius {cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move "
+                f"the geom, the world's start pose (keyframe) or the cable's points")
 
     @functools.cached_property
     def hanging_weights(self) -> np.ndarray:
@@ -494,23 +485,15 @@ class Scene:
 
     @property
     def max_tension(self) -> float:
-        """N: a bound on the cable's static tension, its weight |g| m plus what bodies hang on its pins
+        """N: a bound on the cables' static tension, their weight |g| Σ m plus what bodies hang on their pins
         (:attr:`hanging_weights`); the models' stability rules use it."""
-        return float(np.linalg.norm(self.gravity)) * self.cable.mass + float(np.sum(self.hanging_weights))
+        mass = sum(c.mass for c in self.cables)
+        return float(np.linalg.norm(self.gravity)) * mass + float(np.sum(self.hanging_weights))
 
     @property
     def gravity(self) -> np.ndarray:
         """``(3,)`` m/s²: the world's ``<option gravity>``, or :data:`GRAVITY` without a world."""
         return GRAVITY.copy() if self.world is None else self.world.gravity.copy()
-
-    def pin_particle(self, k: int) -> int:
-        """The particle index (non-negative) held by ``pins[k]``."""
-        return self.pins[k].index % self.cable.n_particles
-
-    def clamp_neighbour(self, k: int) -> int:
-        """The particle next to a clamped pin, towards the cable's inside, that fixes its tangent."""
-        i = self.pin_particle(k)
-        return i + 1 if i < self.cable.n_segments else i - 1
 
     @property
     def grippers(self) -> tuple:
@@ -518,8 +501,30 @@ class Scene:
         return tuple(k for k, p in enumerate(self.pins) if p.kind == "gripper")
 
     def with_cable(self, **overrides) -> "Scene":
-        """A copy with ``CableSpec`` fields replaced (e.g. ``n_segments=100``)."""
+        """A copy with ``CableSpec`` fields replaced (e.g. ``n_segments=100``); one-cable scenes only.
+
+        Raises:
+          ValueError: the scene has several cables (replace them with ``dataclasses.replace``)."""
+        if not isinstance(self.cable, CableSpec):
+            raise ValueError(f"with_cable applies to a scene of one cable, this one has {len(self.cables)}; use "
+                             f"dataclasses.replace(scene, cable=tuple(dataclasses.replace(c, ...) for c in "
+                             f"scene.cables))")
         return dataclasses.replace(self, cable=dataclasses.replace(self.cable, **overrides))
+
+
+def _cables(value):
+    """``value`` (a CableSpec, or a non-empty sequence of them) as one ``CableSpec`` or a tuple of several."""
+    if isinstance(value, CableSpec):
+        return value
+    if isinstance(value, (str, bytes)) or not isinstance(value, collections.abc.Iterable):
+        raise ValueError(f"cable must be a CableSpec or a non-empty sequence of them, got {type(value).__name__}")
+    items = tuple(value)
+    if not items:
+        raise ValueError("cable must be a CableSpec or a non-empty sequence of them, got an empty sequence")
+    for c, item in enumerate(items):
+        if not isinstance(item, CableSpec):
+            raise ValueError(f"cable[{c}] must be a CableSpec, got {type(item).__name__}")
+    return items[0] if len(items) == 1 else items
 
 
 def _sequence(name: str, value, kind: type, what: str) -> tuple:
@@ -533,16 +538,17 @@ def _sequence(name: str, value, kind: type, what: str) -> tuple:
     return items
 
 
-def _check_start_clear(cable: CableSpec, obstacles: tuple) -> None:
-    """Raise if the cable's surface starts more than :data:`START_CONTACT_TOLERANCE` inside an obstacle."""
+def _check_start_clear(cable: CableSpec, obstacles: tuple, named: str = "") -> None:
+    """Raise if the cable's surface starts more than :data:`START_CONTACT_TOLERANCE` inside an obstacle (``named``:
+    which cable, for the message)."""
     for k, ob in enumerate(obstacles):
         distances, _ = geometry.signed_distances(cable.particles, ob)
         depth = cable.radius - distances  # how far the cable's surface reaches into the obstacle, m
         i = int(np.argmax(depth))
         if depth[i] > START_CONTACT_TOLERANCE:
             raise ValueError(
-                f"obstacles[{k}] ({type(ob).__name__} at pos={ob.pos}) holds the cable's start: particle {i} at "
-                f"{np.round(cable.particles[i], 6).tolist()} is {depth[i]:.4g} m deep (the cable's radius "
+                f"obstacles[{k}] ({type(ob).__name__} at pos={ob.pos}) holds the cable's start: particle {i}{named} "
+                f"at {np.round(cable.particles[i], 6).tolist()} is {depth[i]:.4g} m deep (the cable's radius "
                 f"{cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move the obstacle or "
                 f"the cable's points")
 

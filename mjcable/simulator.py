@@ -104,7 +104,7 @@ class Simulator:
         self.settings = catalog.make_settings(model, **settings)
         catalog.check_substep(self.dt, self.settings)
         catalog.check_scene(scene, model)
-        far = float(np.max(np.abs(scene.cable.particles)))
+        far = float(np.max(np.abs(scene.particles)))
         if far > MAX_DISTANCE:
             raise ValueError(f"scene: the cable starts {far:.6g} m from the origin, beyond the {MAX_DISTANCE:g} m past "
                              "which a particle counts as run off (mjcable.simulator.MAX_DISTANCE); place the scene "

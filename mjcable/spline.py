@@ -29,6 +29,7 @@ _CHORD_RTOL = 1e-9  # equal chords are promised to this relative accuracy, or to
 _MARCH_ROUND_OFF = 4.0  # ulps of the coordinates that each marched chord may add to the last one (measured: <= 1.2)
 _BRACKET_SHRINKS = (1e-3, 3e-2, 0.3, 0.9, 0.999)
 _ARC_MARGIN = 1e-9  # covers the quadrature error of the arc length on a straight curve
+_CLOSED_MIN_SEGMENTS = 3  # a closed curve of fewer equal chords folds back on itself (one chord: of length 0)
 
 
 def _as_control_points(points) -> np.ndarray:
@@ -238,15 +239,17 @@ def resample(curve: CatmullRom, n_segments: int) -> np.ndarray:
       cable's rest length is that chord × ``n_segments``.
 
     Raises:
-      ValueError: ``n_segments`` is not an integer >= 1, the curve's ends coincide, or no equal chords exist (the
-        curve folds back on itself at this resolution).
+      ValueError: ``n_segments`` is not an integer >= 1, the curve's ends coincide (a closed curve, whose ends a
+        junction joins into a loop) and it has fewer than 3 segments, or no equal chords exist (the curve folds back
+        on itself at this resolution).
     """
     if isinstance(n_segments, bool) or not isinstance(n_segments, (int, np.integer)) or n_segments < 1:
         raise ValueError(f"n_segments must be an integer >= 1, got {n_segments!r}")
     n = int(n_segments)
     start, end = curve.position(0.0), curve.position(1.0)
-    if np.linalg.norm(end - start) <= 0.0:
-        raise ValueError("the curve's ends coincide; a closed cable cannot be resampled into equal chords")
+    if n < _CLOSED_MIN_SEGMENTS and np.linalg.norm(end - start) <= 0.0:
+        raise ValueError(f"the curve's ends coincide: a closed cable (a loop) needs n_segments >= "
+                         f"{_CLOSED_MIN_SEGMENTS}, got {n}")
     if n == 1:
         return np.stack([start, end])
     t_dense = np.linspace(0.0, 1.0, curve.n_pieces * _DENSE_SAMPLES * max(1, int(np.ceil(n / 32))) + 1)

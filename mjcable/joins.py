@@ -1,0 +1,119 @@
+"""What holds the scene's cables: pins (a particle held by the world, a gripper, a socket or a body) and junctions
+(two particles of the scene's cables joined into one point).
+
+Frozen dataclasses validated on construction; :class:`mjcable.scene.Scene` checks them against its cables (an index
+in range, the two particles of a junction starting at one point). Re-exported by :mod:`mjcable.scene`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Optional, Tuple
+
+from mjcable import _validate
+
+__all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE"]
+
+PIN_KINDS = ("world", "gripper", "socket", "body")
+BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
+# m: how far apart a junction's two particles may start (round-off of two cables' ends laid on one point); farther,
+# the junction would pull them together on the first step
+JUNCTION_TOLERANCE = 1e-6
+
+Vec3 = Tuple[float, float, float]
+
+
+def _set(obj, name, value):
+    object.__setattr__(obj, name, value)
+
+
+@dataclasses.dataclass(frozen=True)
+class Pin:
+    """Holds one cable particle.
+
+    Args:
+      index: particle index within cable ``cable``; negative values count from that cable's end (``Pin(-1)`` is the
+        last particle).
+      kind: ``"world"`` (fixed at its start position, free to rotate), ``"gripper"`` (attached to a mocap body moved
+        with :meth:`mjcable.Simulator.move_gripper`), ``"socket"`` (fixed until the pin's force exceeds
+        ``release_force``, then released for good) or ``"body"`` (held at the point ``offset`` fixed in the frame
+        of the scene world's body ``body``, which then feels the cable: see :class:`Scene`).
+      body: the world body of a ``"body"`` pin.
+      offset: ``(3,)`` m, the held point in ``body``'s frame; only for ``kind="body"``. At the start it must lie
+        within :data:`BODY_PIN_TOLERANCE` of the pinned particle.
+      clamp: also hold the cable's tangent at the pin (a cantilever root); a body clamp holds the direction the
+        tangent has at the start, expressed in the body's frame (a rod with frames, ``cosserat``: the whole frame,
+        and the body feels the rod's torque).
+      release_force: force in newtons above which a socket lets go (> 0); only for ``kind="socket"``.
+      cable: which of the scene's cables (an index into ``Scene.cables``, >= 0) the pin holds.
+    """
+
+    index: int
+    kind: str = "world"
+    body: Optional[str] = dataclasses.field(default=None, kw_only=True)
+    offset: Vec3 = dataclasses.field(default=(0.0, 0.0, 0.0), kw_only=True)
+    clamp: bool = dataclasses.field(default=False, kw_only=True)
+    release_force: Optional[float] = dataclasses.field(default=None, kw_only=True)
+    cable: int = dataclasses.field(default=0, kw_only=True)
+
+    def __post_init__(self):
+        _set(self, "index", _validate.integer("index", self.index))
+        _set(self, "cable", _validate.integer("cable", self.cable, low=0))
+        _validate.choice("kind", self.kind, PIN_KINDS)
+        _set(self, "clamp", _validate.boolean("clamp", self.clamp))
+        _set(self, "offset", _validate.vec3("offset", self.offset, unit="m"))
+        if self.kind == "body":
+            if not isinstance(self.body, str) or not self.body:
+                raise ValueError(f"body is required for kind='body': the name of a body of the scene's world, "
+                                 f"got {self.body!r}")
+        else:
+            if self.body is not None:
+                raise ValueError(f"body applies only to kind='body', got body={self.body!r} for kind={self.kind!r}")
+            if any(self.offset):
+                raise ValueError(f"offset applies only to kind='body', got offset={self.offset!r} for "
+                                 f"kind={self.kind!r}")
+        if self.kind == "socket":
+            if self.release_force is None:
+                raise ValueError("release_force is required for a socket pin: the force in N above which it lets go")
+            _set(self, "release_force",
+                 _validate.number("release_force", self.release_force, low=0.0, low_open=True, unit="N"))
+        elif self.release_force is not None:
+            raise ValueError(f"release_force applies only to kind='socket', got {self.release_force!r} "
+                             f"for kind={self.kind!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Junction:
+    """Joins two particles of the scene's cables into one point: a ball joint (a harness's branch point, or a loop
+    when they are one cable's two ends).
+
+    Args:
+      a: ``(cable, index)``, the first particle: an index into ``Scene.cables`` (>= 0) and a particle index of that
+        cable (negative counts from its end).
+      b: ``(cable, index)``, the second particle. The two must be distinct particles and start within
+        :data:`JUNCTION_TOLERANCE` of each other (checked by :class:`mjcable.scene.Scene`).
+      clamp: also keep the angle between the two cables' tangents at the junction at its start value (a rigid
+        joint; models with frames keep the frames' relative turn).
+
+    Example::
+
+        Junction((0, -1), (1, 0))    # cable 0's last particle is cable 1's first
+    """
+
+    a: tuple
+    b: tuple
+    clamp: bool = dataclasses.field(default=False, kw_only=True)
+
+    def __post_init__(self):
+        _set(self, "a", _end("a", self.a))
+        _set(self, "b", _end("b", self.b))
+        _set(self, "clamp", _validate.boolean("clamp", self.clamp))
+
+
+def _end(name: str, value) -> tuple:
+    """``value`` as a ``(cable, index)`` pair of ints (cable >= 0)."""
+    try:
+        cable, index = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a (cable, index) pair of integers, got {value!r}") from None
+    return (_validate.integer(f"{name}[0] (cable)", cable, low=0), _validate.integer(f"{name}[1] (index)", index))
