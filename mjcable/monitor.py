@@ -98,13 +98,12 @@ class Breach:
 def limits(scene: Scene, entry) -> Limits:
     """The limits of the model of catalogue entry ``entry`` (:class:`mjcable.catalog.ModelEntry`: whether it uses
     ``stretch_stiffness``, from its ``ignores``) on ``scene``'s cable (see the module docstring)."""
-    cable = scene.cable
-    ea = None if "stretch_stiffness" in dict(entry.ignores) else cable.stretch_stiffness
+    eas = [None if "stretch_stiffness" in dict(entry.ignores) else c.stretch_stiffness for c in scene.cables]
+    ea = None if None in eas else min(eas)  # (several cables: the softest's)
     static = 0.0 if ea is None else scene.max_tension / ea  # the weight it may carry: its own and its bodies'
+    tear = max(max(c.segment_length, TEAR_FRACTION * c.segment_length * c.n_segments) for c in scene.cables)
     return Limits(strain_warn=max(STRAIN_TOLERANCE, ELASTIC_MARGIN * static),
-                  strain_fail=max(STRAIN_FAIL, 2.0 * ELASTIC_MARGIN * static),
-                  tear=max(cable.segment_length, TEAR_FRACTION * cable.segment_length * cable.n_segments),
-                  static_strain=static)
+                  strain_fail=max(STRAIN_FAIL, 2.0 * ELASTIC_MARGIN * static), tear=tear, static_strain=static)
 
 
 def limits_record(lim: Limits, dt: float) -> np.ndarray:
@@ -133,7 +132,7 @@ def breach(check: int, value: float, where: int, scene: Scene, lim: Limits, *, s
                 f"torn beyond {lim.tear:.4g} m){_pin_load(scene, where)}")
     elif check == WARN_DEPTH:
         text = (f"{'the cable' if where < 0 else f'segment {where}'}'s centreline is inside an obstacle: the "
-                f"cable's surface {value:.4g} m deep, beyond its radius {scene.cable.radius:g} m")
+                f"cable's surface {value:.4g} m deep, beyond its radius {max(c.radius for c in scene.cables):g} m")
     else:
         promise = (f"an inextensible cable's tolerance {STRAIN_TOLERANCE:g}" if lim.static_strain == 0.0 else
                    f"{ELASTIC_MARGIN:g} × the static stretch {lim.static_strain:.3g} under the scene's weight")

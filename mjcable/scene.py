@@ -552,10 +552,3 @@ def _check_start_clear(cable: CableSpec, obstacles: tuple, named: str = "") -> N
                 f"{cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move the obstacle or "
                 f"the cable's points")
 
-
-# TEMP shim (dropped when branch `cables` is merged): the several-cable API for one cable
-Scene.cables = property(lambda self: (self.cable,))
-Scene.n_particles = property(lambda self: self.cable.n_particles)
-Scene.cable_slices = property(lambda self: (slice(0, self.cable.n_particles),))
-Scene.particles = property(lambda self: self.cable.particles)
-Scene.junctions = ()

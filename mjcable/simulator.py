@@ -120,7 +120,7 @@ class Simulator:
         if not isinstance(backend, Backend):  # pragma: no cover - a catalogue entry's bug
             raise TypeError(f"model {model!r}'s backend {type(backend).__name__} does not implement Backend")
         self._backend: Backend = backend
-        n = scene.cable.n_particles
+        n = scene.n_particles
         self._no_rows = (np.zeros(0, dtype=np.int64), np.zeros((0, n, 3)))  # _run's "record nothing"
         self._step_seconds = None  # wall seconds per step of the last call of the backend's run (None: none yet)
         self._warned = set()  # the checks a PhysicsWarning was given for
@@ -173,6 +173,15 @@ class Simulator:
         same quantity.
         """
         return self._backend.pin_forces()
+
+    @property
+    def junction_forces(self) -> np.ndarray:
+        """``(len(scene.junctions), 3)`` force in newtons each junction exerts on its particle b (the second of its
+        pair; equal and opposite on a), world frame, averaged over the last step as :attr:`pin_forces`; zero rows
+        before the first step."""
+        if not self.scene.junctions:
+            return np.zeros((0, 3))
+        return self._backend.junction_forces()
 
     @property
     def pin_torques(self) -> np.ndarray:
@@ -490,7 +499,7 @@ class Simulator:
         mass at the particle); particle solvers to the particle's lumped mass. A held particle stays held: its mass
         then enters its pin's force.
         """
-        n = self.scene.cable.n_particles
+        n = self.scene.n_particles
         index = _validate.integer("index", index, low=-n, high=n - 1) % n
         mass = _validate.number("mass", mass, low=0.0, low_open=True, unit="kg")
         self._backend.add_point_mass(index, mass)

@@ -215,7 +215,7 @@ def pinned_segments(scene: Scene, body: str) -> set:
     ``BODY_PIN_REACH`` particles of a body pin on it (the cable's end starts touching the body it is fastened
     to)."""
     near = set()
-    n = scene.cable.n_segments
+    n = scene.n_particles - 1
     for k, pin in enumerate(scene.pins):
         if pin.kind == "body" and pin.body == body:
             i = scene.pin_particle(k)
@@ -226,7 +226,7 @@ def pinned_segments(scene: Scene, body: str) -> set:
 def _exclude_pinned_bodies(spec: mujoco.MjSpec, scene: Scene) -> None:
     """No contacts between a body pin's body and the cable bodies holding the particles within
     ``BODY_PIN_REACH`` of its particle: the cable's end starts touching the body it is fastened to."""
-    n = scene.cable.n_particles
+    n = scene.n_particles
     pairs = set()
     for k, pin in enumerate(scene.pins):
         if pin.kind != "body":
@@ -260,10 +260,10 @@ def stiffen_obstacle_contacts(spec: mujoco.MjSpec, scene: Scene, timestep: float
 
 
 def _cable_box(scene: Scene) -> np.ndarray:
-    """(2, 3) bounds of where the cable can be: its start particles, grown downwards by its slack."""
-    p = scene.cable.particles
+    """(2, 3) bounds of where the cables can be: their start particles, grown downwards by the slackest's slack."""
+    p = scene.particles
     lo, hi = p.min(axis=0), p.max(axis=0)
-    slack = max(scene.cable.length - float(np.linalg.norm(p[-1] - p[0])), 0.0)
+    slack = max(max(c.length - float(np.linalg.norm(c.particles[-1] - c.particles[0])) for c in scene.cables), 0.0)
     if not scene.pins:
         slack = 0.0
     lo = lo - np.array([0.0, 0.0, 0.5 * slack])
@@ -294,7 +294,7 @@ def _axes_quat(x_axis, y_axis) -> np.ndarray:
 
 
 def _add_obstacle(world, scene: Scene, i: int, ob) -> None:
-    mu = scene.cable.friction if ob.friction is None else ob.friction
+    mu = _cable_friction(scene) if ob.friction is None else ob.friction
     common = dict(
         name=f"obstacle{i}", pos=ob.pos, quat=geometry.quaternion(ob.euler),
         friction=[mu, *_TORSION_ROLL_FRICTION], priority=1,  # higher priority: this μ is the one in force
@@ -317,11 +317,16 @@ def _add_obstacle(world, scene: Scene, i: int, ob) -> None:
         raise ValueError(f"unsupported obstacle {ob!r}")
 
 
+def _cable_friction(scene: Scene) -> float:
+    """The cables' μ: the larger of several cables' (one cable's own)."""
+    return max(c.friction for c in scene.cables)
+
+
 def cable_geom(scene: Scene, *, self_collision: bool = False) -> dict:
     """Contact attributes for the cable's geoms: the cable's μ, condim 3, collisions with obstacles only unless
     ``self_collision`` (neighbouring segments are then excluded by each model)."""
     return dict(
-        friction=[scene.cable.friction, *_TORSION_ROLL_FRICTION], condim=3, material="cable",
+        friction=[_cable_friction(scene), *_TORSION_ROLL_FRICTION], condim=3, material="cable",
         contype=CABLE_CONTYPE, conaffinity=OBSTACLE_CONTYPE | (CABLE_CONTYPE if self_collision else 0),
     )
 
@@ -341,13 +346,13 @@ def add_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position=None) -> str:
     name of its site: a world site for world and socket pins, a mocap body ``gripper{k}`` for gripper pins, a site
     at the pin's offset in the user's body for body pins (``position`` ignored)."""
     pin = scene.pins[k]
-    pos = scene.cable.particles[scene.pin_particle(k)] if position is None else np.asarray(position)
+    pos = scene.particles[scene.pin_particle(k)] if position is None else np.asarray(position)
     name = anchor_site(k)
     if pin.kind == "body":  # the held point, fixed in the user's body
         spec.body(pin.body).add_site(name=name, pos=pin.offset)
     elif pin.kind == "gripper":
         body = spec.worldbody.add_body(name=gripper_body(k), pos=pos, mocap=True)
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[2.5 * scene.cable.radius, 0, 0], contype=0,
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[2.5 * scene.cables[scene.pin_cable(k)].radius, 0, 0], contype=0,
                       conaffinity=0, density=0.0, material="gripper", group=1)  # visual only: no mass, no contacts
         body.add_site(name=name)
     else:
@@ -360,7 +365,7 @@ def add_clamp_anchor(spec: mujoco.MjSpec, scene: Scene, k: int) -> str:
     body as ``anchor{k}`` (:func:`add_anchor`: the world, the gripper's mocap body, or the user's body, where it
     keeps the tangent's start direction in that body's frame). Returns its name."""
     pin = scene.pins[k]
-    p = scene.cable.particles
+    p = scene.particles
     i, j = scene.pin_particle(k), scene.clamp_neighbour(k)
     name = f"{anchor_site(k)}_clamp"
     if pin.kind == "body":
@@ -378,7 +383,7 @@ def add_roll_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position: np.ndar
     particle, held by a third connect so that a clamp of a model with segment bodies also holds the turn about the
     tangent), in the same body as ``anchor{k}`` (:func:`add_anchor`). Returns its name."""
     pin = scene.pins[k]
-    p = scene.cable.particles[scene.pin_particle(k)]
+    p = scene.particles[scene.pin_particle(k)]
     name = f"{anchor_site(k)}_roll"
     if pin.kind == "body":
         _, rot = scene.world.body_pose(pin.body)
