@@ -71,13 +71,14 @@ def _segments_from(i, p, first, stop):
 
 
 @_inline
-def _joined(i, j, ci, cj, chains, junction_p, first):
+def _joined(i, j, ci, cj, chains, joined_p, first):
     """Whether segments i (of chain ``ci``) and j (of chain ``cj``) lie closer than ``first`` segments apart through a
-    junction (``junction_p`` (J, 2) particles; ``chains`` (C, 2) each cable's segments [first, stop)), which
-    :func:`find_self_contacts` leaves out as it leaves out a chain's near neighbours."""
-    for k in range(junction_p.shape[0]):
+    junction (``joined_p`` (M, 2): every pair of particles that junctions make one point; ``chains`` (C, 2) each
+    cable's segments [first, stop)), which :func:`find_self_contacts` leaves out as it leaves out a chain's near
+    neighbours."""
+    for k in range(joined_p.shape[0]):
         for end in range(2):
-            a, b = junction_p[k, end], junction_p[k, 1 - end]
+            a, b = joined_p[k, end], joined_p[k, 1 - end]
             da = _segments_from(i, a, chains[ci, 0], chains[ci, 1])
             db = _segments_from(j, b, chains[cj, 0], chains[cj, 1])
             if da >= 0 and db >= 0 and da + db + 1 < first:
@@ -86,10 +87,11 @@ def _joined(i, j, ci, cj, chains, junction_p, first):
 
 
 @_nogil
-def find_self_contacts(x, reach, first, pair, st, normal, chains, own, junction_p):
+def find_self_contacts(x, reach, first, pair, st, normal, chains, own, joined_p):
     """Pairs of segments whose axes are closer than ``reach`` metres: of one chain (with ``own``) at least ``first``
     (>= 2) apart (j − i ≥ first), of different chains any (``chains`` (C, 2): each cable's segments [first, stop)),
-    none closer than ``first`` through a junction (``junction_p`` (J, 2)); each pair once, i < j. Fills ``pair``
+    none closer than ``first`` through a junction (``joined_p`` (M, 2): the pairs of particles that junctions make
+    one point); each pair once, i < j. Fills ``pair``
     (cap, 2), the fractions (s, t) of their closest points into ``st`` (cap, 2) and the unit normal from segment j to
     segment i into ``normal`` (cap, 3).
     Returns the number found, or −1 if more than ``cap`` (the caller grows the buffers and asks again)."""
@@ -123,7 +125,7 @@ def find_self_contacts(x, reach, first, pair, st, normal, chains, own, junction_
                             or lo[j, 1] > hi[i, 1] + reach or lo[i, 2] > hi[j, 2] + reach
                             or lo[j, 2] > hi[i, 2] + reach):
                         continue
-                    if junction_p.shape[0] and _joined(i, j, ci, cj, chains, junction_p, first):
+                    if joined_p.shape[0] and _joined(i, j, ci, cj, chains, joined_p, first):
                         continue
                     count = _take_pair(x, reach, i, j, pair, st, normal, count)
                     if count < 0:
@@ -175,7 +177,7 @@ def self_contacts(S, reach):
     P = S.par[0]
     first = int(math.ceil(2.0 * P.radius / S.rest[S.chain_seg[0, 0]] * (1.0 - _ROUND_OFF))) + 1
     first = max(first, 2)
-    args = (S.chain_seg, P.self_collision, S.junction_p)
+    args = (S.chain_seg, P.self_collision, S.joined_p)
     count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal, *args)
     while count < 0:
         cap = max(2 * S.self_pair.shape[0], 1)

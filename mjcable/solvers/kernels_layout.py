@@ -263,6 +263,8 @@ FIELDS = (
     ("junction_p", _I2, "(J, 2) the particles [a, b] a junction makes one point"),
     ("lam_j", _F2, "(J, 3) kg·m junction multipliers of the substep (the impulse on b · h)"),
     ("junction_sum", _F2, "(J, 3) N Σ of the step's substep forces on b"),
+    ("joined_p", _I2, "(M, 2) every pair of particles the junctions make one point (through others too): the "
+     "segment pairs near them never touch"),
 )
 
 
@@ -405,9 +407,9 @@ def _frame_scratch(S, clamp_seg, clamp_q, clamp_qfrom, clamp_qto, clamp_react, c
 
 
 @_jit
-def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum):
+def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p):
     S.seg_cable, S.chain_seg, S.cable_mu = seg_cable, chain_seg, cable_mu
-    S.junction_p, S.lam_j, S.junction_sum = junction_p, lam_j, junction_sum
+    S.junction_p, S.lam_j, S.junction_sum, S.joined_p = junction_p, lam_j, junction_sum, joined_p
 
 
 @_jit
@@ -443,7 +445,7 @@ _PARTS = (
     (_frames, ("q", "q0", "omega", "inertia", "wq", "darboux0", "lam_ss", "lam_bt", "lam_end")),
     (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "clamp_wq", "end_clamp",
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),
-    (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum")),
+    (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

@@ -172,7 +172,7 @@ def topology(scene: Scene) -> dict:
     """The state's topology fields of ``scene``'s cables (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the
     cable of each segment ``seg_cable`` (n,) (−1: the gap from one cable's last particle to the next one's first),
     each cable's segments ``chain_seg`` (C, 2) [first, stop), its μ ``cable_mu`` (C,), the junctions' particles
-    ``junction_p`` (J, 2) and their multipliers and force sums.
+    ``junction_p`` (J, 2), their multipliers and force sums, and the pairs of particles they join ``joined_p``.
 
     Raises:
       ValueError: a clamped junction (the particle solvers join particles, not tangents)."""
@@ -191,7 +191,20 @@ def topology(scene: Scene) -> dict:
                           dtype=np.int64).reshape(-1, 2)
     return dict(seg_cable=seg_cable, chain_seg=chain_seg,
                 cable_mu=np.array([c.friction for c in scene.cables], dtype=np.float64), junction_p=junction_p,
-                lam_j=np.zeros((len(junction_p), 3)), junction_sum=np.zeros((len(junction_p), 3)))
+                lam_j=np.zeros((len(junction_p), 3)), junction_sum=np.zeros((len(junction_p), 3)),
+                joined_p=_joined_pairs(junction_p))
+
+
+def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
+    """``(M, 2)`` every pair of particles that the junctions ``junction_p`` (J, 2) make one point, directly or through
+    other junctions (three cables joined by two junctions make three pairs)."""
+    group = {}  # particle -> the set of particles at its point
+    for a, b in junction_p.tolist():
+        joined = group.get(a, {a}) | group.get(b, {b})
+        for p in joined:
+            group[p] = joined
+    pairs = {(a, b) for members in map(frozenset, group.values()) for a in members for b in members if a < b}
+    return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
 
 
 def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> StateArrays:
