@@ -54,8 +54,8 @@ _mujoco_log.route_warnings()  # MuJoCo's warnings to the logger "mjcable", not t
 _FAMILY_VIEWS = {"MODELS": None, "NATIVE_MODELS": "native", "PARTICLE_MODELS": "particle"}
 # Subpackages imported on first attribute access (they pull in dm_control, matplotlib or ffmpeg): after
 # ``import mjcable``, ``mjcable.envs.load`` resolves like any other name.
-_LAZY_SUBMODULES = ("backends", "bench", "cli", "envs", "export", "geometry", "io", "metrics", "reference", "render",
-                    "user_world", "worlds")
+_LAZY_SUBMODULES = ("backends", "bench", "cli", "envs", "export", "geometry", "io", "metrics", "reference",
+                    "reference_harness", "render", "user_world", "worlds")
 
 
 def __getattr__(name: str):
