@@ -13,9 +13,11 @@ than that never touch (they would push the junction apart). The gap segments bet
 **Projection.** A pair's contact, linearised once per step with the unit normal n from segment j to segment i, is
 C = n·(pᵢ − pⱼ) − 2r ≥ 0 with the four particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of
 the thesis, §4.2): a speculative contact, so that a segment found within the step's travel cannot pass through the
-other within the step. Coulomb friction on the relative tangential slip of the two axis points since the substep
-began ([M20]'s static friction, capped at μ λₙ: kinetic beyond), with μ the larger of the two cables' coefficients
-(the stickier surface decides, as MuJoCo's default of the larger geom friction).
+other within the step. Coulomb friction, capped at μ λₙ (kinetic beyond), with μ the larger of the two cables'
+coefficients (the stickier surface decides, as MuJoCo's default of the larger geom friction): between two cables
+against an anchor kept across substeps and steps (:func:`_anchored_friction`: the two material points that touched
+are held together, so that a rope resting on a cable does not creep), within one cable on the relative tangential
+slip of the two axis points since the substep began ([M20]'s static friction).
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -37,6 +39,10 @@ __all__ = ["segment_closest", "find_self_contacts", "self_contacts", "self_conta
 
 _PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
 _ROUND_OFF = 1e-9  # relative: a radius equal to half a segment up to this does not overlap its neighbours
+# m: the tangential offset a capped friction correction of two cables' contact may leave before its anchor moves
+# (_anchored_friction): a substep's normal load scatters between a wrap's contacts, and one capped for a substep need
+# not slide (docs/measurements.md, 2026-11-27)
+ANCHOR_SLACK = 1e-3
 
 
 @_inline
@@ -178,6 +184,8 @@ def self_contacts(S, reach):
     first = int(math.ceil(2.0 * P.radius / S.rest[S.chain_seg[0, 0]] * (1.0 - _ROUND_OFF))) + 1
     first = max(first, 2)
     args = (S.chain_seg, P.self_collision, S.joined_p)
+    held = min(P.n_self, S.self_pair.shape[0]) if P.cable_contact else 0  # the last step's pairs, for their anchors
+    last = (S.self_pair[:held].copy(), S.self_anchor[:held].copy(), S.self_lam_n[:held].copy())
     count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal, *args)
     while count < 0:
         cap = max(2 * S.self_pair.shape[0], 1)
@@ -186,8 +194,59 @@ def self_contacts(S, reach):
         S.self_normal = np.zeros((cap, 3))
         S.self_lam_n = np.zeros(cap)
         S.self_lam_t = np.zeros(cap)
+        S.self_anchor = np.zeros((cap, 5))
         count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal, *args)
+    if P.cable_contact:
+        _keep_anchors(S, count, last)
     return count
+
+
+@_inline
+def _keep_anchors(S, count, last):
+    """The friction anchors of the ``count`` pairs just found: a pair of two cables that the last step held too and
+    that pressed in its last substep keeps its anchor (``last``: the last step's pairs, anchors and normal
+    multipliers), every other starts at its closest points. Both lists are in :func:`find_self_contacts`' order,
+    ascending (i, j): one merge pass."""
+    pair, anchor, seg_cable = S.self_pair, S.self_anchor, S.seg_cable
+    old_pair, old_anchor, old_lam = last
+    k = 0
+    for c in range(count):
+        i, j = pair[c, 0], pair[c, 1]
+        while k < old_pair.shape[0] and (old_pair[k, 0] < i or (old_pair[k, 0] == i and old_pair[k, 1] < j)):
+            k += 1
+        if (k < old_pair.shape[0] and old_pair[k, 0] == i and old_pair[k, 1] == j and old_lam[k] >= 0.0
+                and seg_cable[i] != seg_cable[j]):
+            for col in range(5):
+                anchor[c, col] = old_anchor[k, col]
+        else:
+            _anchor_at(S, c)
+
+
+@_inline
+def _remeasure(x, i, j, st, normal, c):
+    """Pair ``c``'s closest points (``st[c]``) and normal (``normal[c]``) from segments i and j as they are now: a
+    chord turning on the other cable within a step keeps its contact where the two touch (as an obstacle contact's
+    point on a round shape, :func:`mjcable.solvers.contact_kernels.contact_sweep`). A normal that would turn against
+    the query's (the segments passed each other) keeps the query's: the contact stays speculative."""
+    a = e = f = cc = d1d2 = 0.0
+    for comp in range(3):
+        d1 = x[i + 1, comp] - x[i, comp]
+        d2 = x[j + 1, comp] - x[j, comp]
+        r = x[i, comp] - x[j, comp]
+        a += d1 * d1
+        e += d2 * d2
+        f += d2 * r
+        cc += d1 * r
+        d1d2 += d1 * d2
+    s, t = segment_closest(a, e, f, cc, d1d2)
+    d0 = (1.0 - s) * x[i, 0] + s * x[i + 1, 0] - (1.0 - t) * x[j, 0] - t * x[j + 1, 0]
+    d1 = (1.0 - s) * x[i, 1] + s * x[i + 1, 1] - (1.0 - t) * x[j, 1] - t * x[j + 1, 1]
+    d2 = (1.0 - s) * x[i, 2] + s * x[i + 1, 2] - (1.0 - t) * x[j, 2] - t * x[j + 1, 2]
+    dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    if dist < _TINY_LENGTH or d0 * normal[c, 0] + d1 * normal[c, 1] + d2 * normal[c, 2] <= 0.0:
+        return
+    st[c, 0], st[c, 1] = s, t
+    normal[c, 0], normal[c, 1], normal[c, 2] = d0 / dist, d1 / dist, d2 / dist
 
 
 @_inline
@@ -213,9 +272,9 @@ def self_contact_sweep(S):
     (i, i+1) and (j, j+1) (``self_pair``) at fractions s, t (``self_st``), linearised once per step with the unit
     normal n from segment j to segment i (``self_normal``): C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four
     particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb
-    friction μ (the larger of the two cables', ``cable_mu``) on the relative tangential slip of the two axis points
-    since the substep began ([M20]'s static friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``,
-    ``self_lam_t``."""
+    friction μ (the larger of the two cables', ``cable_mu``): between two cables against the pair's anchor
+    (:func:`_anchored_friction`), within one on the relative tangential slip of the two axis points since the substep
+    began ([M20]'s static friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``, ``self_lam_t``."""
     P = S.par[0]
     gap = 2.0 * P.radius
     x, x0, w, react, seg_cable, cable_mu = S.x, S.x0, S.w, S.react, S.seg_cable, S.cable_mu
@@ -224,6 +283,8 @@ def self_contact_sweep(S):
         i = pair[c, 0]
         j = pair[c, 1]
         mu = max(cable_mu[seg_cable[i]], cable_mu[seg_cable[j]])
+        if seg_cable[i] != seg_cable[j]:  # two cables: their closest points now (_remeasure)
+            _remeasure(x, i, j, st, normal, c)
         s, t = st[c, 0], st[c, 1]
         nx, ny, nz = normal[c, 0], normal[c, 1], normal[c, 2]
         a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
@@ -241,6 +302,9 @@ def self_contact_sweep(S):
             _move_pair(x, w, react, i, j, weights, dlam, (nx, ny, nz))
         if mu <= 0.0 or lam_n[c] <= 0.0:
             continue
+        if seg_cable[i] != seg_cable[j]:  # two cables: friction holds the anchored material points together
+            _anchored_friction(S, c, mu * lam_n[c] - lam_t[c], nx, ny, nz)
+            continue
         ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
         for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
             ux += f * (x[p, 0] - x0[p, 0])
@@ -255,3 +319,47 @@ def self_contact_sweep(S):
         dlam_t = min(slip / wsum, budget)
         lam_t[c] += dlam_t
         _move_pair(x, w, react, i, j, weights, -dlam_t / slip, (tx, ty, tz))
+
+
+@_inline
+def _anchored_friction(S, c, budget, nx, ny, nz):
+    """Coulomb friction of contact ``c`` between two cables against its anchor (``self_anchor[c]``: the fractions
+    s_a, t_a of the points on segments i and j that touched, and the unit normal n_a then): a chain of particles
+    does not spin, so a cable's surface point there moves with its axis point, and the two surfaces hold together
+    while p_i(s_a) − p_j(t_a) stays (r_i + r_j) n_a. Friction moves the two axis points to remove the tangential
+    part (to the current normal n) of the offset p_i(s_a) − p_j(t_a) − (r_i + r_j) n_a, across substeps and steps
+    ([M20]'s static friction against a kept anchor, as the obstacle contacts' anchors): the offset of a rope turning
+    about a cable's axis too, which the closest points alone would not see. Δλ_t is at most ``budget`` (μ λₙ less what
+    this substep's iterations applied); beyond it the surfaces slide (kinetic friction) and the anchor moves to the
+    pair's closest points and normal now. Adds to ``self_lam_t[c]``."""
+    x, w, react, pair, anchor = S.x, S.w, S.react, S.self_pair, S.self_anchor
+    if budget <= 0.0:
+        return
+    i, j = pair[c, 0], pair[c, 1]
+    sa, ta = anchor[c, 0], anchor[c, 1]
+    gap = 2.0 * S.par[0].radius
+    a0, a1, b0, b1 = 1.0 - sa, sa, -(1.0 - ta), -ta
+    wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
+    if wsum == 0.0:
+        return
+    dx = a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0] - gap * anchor[c, 2]
+    dy = a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1] - gap * anchor[c, 3]
+    dz = a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2] - gap * anchor[c, 4]
+    dn = dx * nx + dy * ny + dz * nz
+    tx, ty, tz = dx - dn * nx, dy - dn * ny, dz - dn * nz
+    slip = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if slip <= _TINY_SLIP:
+        return
+    dlam = min(slip / wsum, budget)
+    S.self_lam_t[c] += dlam
+    _move_pair(x, w, react, i, j, (a0, a1, b0, b1), -dlam / slip, (tx, ty, tz))
+    if slip - dlam * wsum > ANCHOR_SLACK:  # they slid: the anchor moves to where they touch now
+        _anchor_at(S, c)
+
+
+@_inline
+def _anchor_at(S, c):
+    """Contact ``c``'s anchor at its closest points and normal (``self_st[c]``, ``self_normal[c]``)."""
+    anchor, st, normal = S.self_anchor, S.self_st, S.self_normal
+    anchor[c, 0], anchor[c, 1] = st[c, 0], st[c, 1]
+    anchor[c, 2], anchor[c, 3], anchor[c, 4] = normal[c, 0], normal[c, 1], normal[c, 2]

@@ -196,6 +196,8 @@ FIELDS = (
     ("self_pair", _I2, "(S, 2) segments i, j"), ("self_st", _F2, "(S, 2) fractions s, t of the closest points"),
     ("self_normal", _F2, "(S, 3) unit normal from segment j to segment i"),
     ("self_lam_n", _F1, "(S,) kg·m normal multipliers"), ("self_lam_t", _F1, "(S,) kg·m friction multipliers"),
+    ("self_anchor", _F2, "(S, 5) a contact between two cables' friction anchor, kept across steps: the fractions s, "
+     "t of the points that touched and the normal then (cable_contact_kernels)"),
     # obstacle shapes (B rows; contacts and anchors name their row)
     ("shape_type", _I1, "(B,) MuJoCo geom type (mjtGeom)"), ("shape_size", _F2, "(B, 3) m geom size"),
     ("shape_pos", _F2, "(B, 3) m world position"), ("shape_rot", _F3, "(B, 3, 3) world rotation (geom to world)"),
@@ -333,9 +335,10 @@ def _obstacle_contacts(S, con_seg, con_s, con_normal, con_offset, con_mu, con_sh
 
 
 @_jit
-def _self_contacts(S, self_pair, self_st, self_normal, self_lam_n, self_lam_t):
+def _self_contacts(S, self_pair, self_st, self_normal, self_lam_n, self_lam_t, self_anchor):
     S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t = (self_pair, self_st, self_normal, self_lam_n,
                                                                          self_lam_t)
+    S.self_anchor = self_anchor
 
 
 @_jit
@@ -427,7 +430,7 @@ _PARTS = (
     (_anchors, ("fric_unit", "fric_push", "fric_cone", "fric_sole", "anchor", "anchor_ob")),
     (_obstacle_contacts, ("con_seg", "con_s", "con_normal", "con_offset", "con_mu", "con_shape", "con_face",
                           "con_lam")),
-    (_self_contacts, ("self_pair", "self_st", "self_normal", "self_lam_n", "self_lam_t")),
+    (_self_contacts, ("self_pair", "self_st", "self_normal", "self_lam_n", "self_lam_t", "self_anchor")),
     (_shapes, ("shape_type", "shape_size", "shape_pos", "shape_rot", "shape_moves", "impulse_force",
                "impulse_moment")),
     (_query, ("box_lo", "box_hi", "plane_n", "plane_p", "struct_i32", "struct_i64", "arena_f64", "arena_i32",
@@ -469,6 +472,6 @@ def contact_buffers(S):
 
 @_jit
 def self_contact_buffers(S):
-    """The self-contact buffers (``self_pair``, ``self_st``, ``self_normal``, ``self_lam_n``, ``self_lam_t``), as
-    :func:`contact_buffers`."""
-    return S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t
+    """The segment-contact buffers (``self_pair``, ``self_st``, ``self_normal``, ``self_lam_n``, ``self_lam_t``,
+    ``self_anchor``), as :func:`contact_buffers`."""
+    return S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t, S.self_anchor

@@ -137,8 +137,10 @@ def _contact_buffers(capacity: int, self_capacity: int) -> dict:
     c, s = capacity, self_capacity
     return dict(con_seg=np.zeros(c, dtype=np.int64), con_s=np.zeros(c), con_normal=np.zeros((c, 3)),
                 con_offset=np.zeros(c), con_mu=np.zeros(c), con_shape=np.zeros(c, dtype=np.int64),
-                con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64), self_st=np.zeros((s, 2)),
-                self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s))
+                con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64),
+                self_st=np.zeros((s, 2)),
+                self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s),
+                self_anchor=np.zeros((s, 5)))
 
 
 #: how a cable's property that the parameter record holds once for all cables is read (:func:`shared_cable`)
