@@ -1,4 +1,5 @@
-"""Scenes of several cables (issue 22): the Scene's API, its validation, and one-cable scenes left as they were."""
+"""Scenes of several cables (issue 22): the Scene's API, its validation, one-cable scenes left as they were, and the
+particle solvers' chains, junctions and cable contacts against physics and independent references."""
 
 import dataclasses
 import warnings

@@ -75,7 +75,7 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, variable
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_SOLE,
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_SOLE,
                                             DEPENETRATION_SPEED, GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER,
                                             GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.chain_solve_kernels import (_DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,  # noqa: F401
+from mjcable.solvers.chain_solve_kernels import (_DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,
                                                   _chain_geometric_solve, _perpendicular)
 from mjcable.solvers.constraint_kernels import (_bend_clamp_sweeps, body_clamp_turn, body_turn_dot, stretch_sweep,
                                                  turns_body)
