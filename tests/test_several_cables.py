@@ -246,6 +246,27 @@ def test_two_cables_hang_as_two_catenaries(model):
                                    atol=0.01 * cab.mass * G)
 
 
+def test_elastic_energy_counts_each_cables_own_rows():
+    """Two elastic cables (E·A) hanging side by side: the stretch energy is the sum of each one's ½ (E·A / l₀) C²
+    over its own segments (the gap between them stores nothing), and gravity's is −Σ m g·x."""
+    ea = 50.0
+    cables = (_sagging([-0.4, 0.0, 1.0], [0.4, 0.0, 1.0], 1.0, 50, damping=20.0, stretch_stiffness=ea),
+              _sagging([-0.3, 0.3, 1.2], [0.3, 0.3, 1.2], 0.8, 40, damping=20.0, stretch_stiffness=ea))
+    pins = (mjcable.Pin(0), mjcable.Pin(-1), mjcable.Pin(0, cable=1), mjcable.Pin(-1, cable=1))
+    scene = mjcable.Scene(cables, pins)
+    sim = mjcable.Simulator(scene, "xpbd")
+    sim.step(1.0)
+    x = sim.positions
+    expected = 0.0
+    for cab, part in zip(scene.cables, scene.cable_slices):
+        strain = np.linalg.norm(np.diff(x[part], axis=0), axis=1) - cab.segment_length
+        expected += 0.5 * ea / cab.segment_length * float(np.sum(strain**2))
+    energy = sim.energy(parts=True)
+    assert energy.stretch == pytest.approx(expected, rel=1e-9) and expected > 0.0
+    masses = np.concatenate([cab.particle_masses for cab in scene.cables])
+    assert energy.gravity == pytest.approx(G * float(masses @ x[:, 2]), rel=1e-12)  # −Σ m g·x, g = −G ẑ
+
+
 @pytest.mark.parametrize("model", PARTICLE)
 def test_y_harness_settles_on_the_reference(model):
     """Three 0.6 m cables joined at one junction (two Junctions), their free ends pinned at different heights: the
