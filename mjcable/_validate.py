@@ -17,8 +17,9 @@ from typing import Any, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["number", "optional_number", "integer", "boolean", "choice", "vec3", "path_like"]
+__all__ = ["number", "optional_number", "integer", "boolean", "choice", "vec3", "path_like", "set_field", "Vec3"]
 
+Vec3 = Tuple[float, float, float]
 _REAL = (int, float, np.integer, np.floating)
 _INTEGRAL = (int, np.integer)
 
@@ -90,3 +91,8 @@ def path_like(name: str, value: Any) -> str:
     if not isinstance(value, (str, os.PathLike)):
         raise ValueError(f"{name} must be a file path (str or os.PathLike), got {value!r}")
     return os.fspath(value)
+
+
+def set_field(obj, name: str, value) -> None:
+    """Write a validated ``value`` into field ``name`` of the frozen dataclass ``obj`` (in its ``__post_init__``)."""
+    object.__setattr__(obj, name, value)

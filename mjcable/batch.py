@@ -76,8 +76,8 @@ class BatchTrajectory:
 
     Attributes:
       times: ``(k,)`` simulated time in seconds of each row (the same for every copy).
-      positions: ``(n, k, n_segments + 1, 3)`` particle positions in metres.
-      velocities: ``(n, k, n_segments + 1, 3)`` particle velocities in m/s.
+      positions: ``(n, k, N, 3)`` particle positions in metres (N = ``scene.n_particles``, cable order).
+      velocities: ``(n, k, N, 3)`` particle velocities in m/s.
     """
 
     times: np.ndarray
@@ -209,8 +209,8 @@ class Batch:
 
         batch = mjcable.Batch(mjcable.scenes.get("table"), "xpbd", 8, params={"damping": np.linspace(0.1, 2, 8)})
         batch.step(0.5)
-        batch.positions   # (8, n_segments + 1, 3), metres
-        traj = batch.rollout(0.5, every=25)   # traj.positions: (8, 10, n_segments + 1, 3)
+        batch.positions   # (8, N, 3), metres
+        traj = batch.rollout(0.5, every=25)   # traj.positions: (8, 10, N, 3)
     """
 
     def __init__(self, scene: Scene, model: str, n: int, *, dt: float = 0.002, threads: Optional[int] = None,
@@ -265,12 +265,12 @@ class Batch:
 
     @property
     def positions(self) -> np.ndarray:
-        """``(n, n_segments + 1, 3)`` centreline particles of every copy in metres."""
+        """``(n, N, 3)`` centreline particles of every copy in metres."""
         return np.stack([s.positions for s in self._sims])
 
     @property
     def velocities(self) -> np.ndarray:
-        """``(n, n_segments + 1, 3)`` particle velocities of every copy in m/s."""
+        """``(n, N, 3)`` particle velocities of every copy in m/s."""
         return np.stack([s.velocities for s in self._sims])
 
     @property
@@ -309,7 +309,7 @@ class Batch:
             state.
 
         Returns:
-          A :class:`BatchTrajectory`: ``times`` (k,), ``positions`` and ``velocities`` (n, k, n_segments + 1, 3).
+          A :class:`BatchTrajectory`: ``times`` (k,), ``positions`` and ``velocities`` (n, k, N, 3).
 
         Raises:
           BatchDivergedError, RuntimeError: as :meth:`step`.

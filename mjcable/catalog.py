@@ -284,9 +284,11 @@ for _module, _settings, _summary, _missing in (
         _UNAVAILABLE[_module.__name__.rsplit(".", 1)[1]] = _missing
         continue
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="native", settings=_settings,
-                        build=spec_builder(_module.build), backend=NativeBackend, summary=_summary,
+                        build=spec_builder(_module.build, frames=_module in (joints, composite)),
+                        backend=NativeBackend, summary=_summary,
                         ignores=getattr(_module, "IGNORES", {}), check=getattr(_module, "precheck", None),
-                        twist=_module is composite, frames=_module in (joints, composite)))
+                        twist=_module is composite, frames=_module in (joints, composite),
+                        several_cables=True, junctions=True))
 for _module, _settings, _summary in (
         (jakobsen, JakobsenSettings, "Jakobsen's Verlet relaxation"),
         (pbd, PBDSettings, "Position Based Dynamics"),

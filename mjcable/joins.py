@@ -8,9 +8,10 @@ in range, the two particles of a junction starting at one point). Re-exported by
 from __future__ import annotations
 
 import dataclasses
-from typing import Optional, Tuple
+from typing import Optional
 
 from mjcable import _validate
+from mjcable._validate import Vec3, set_field as _set
 
 __all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE"]
 
@@ -20,11 +21,6 @@ BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its pa
 # the junction would pull them together on the first step
 JUNCTION_TOLERANCE = 1e-6
 
-Vec3 = Tuple[float, float, float]
-
-
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,3 +113,21 @@ def _end(name: str, value) -> tuple:
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a (cable, index) pair of integers, got {value!r}") from None
     return (_validate.integer(f"{name}[0] (cable)", cable, low=0), _validate.integer(f"{name}[1] (index)", index))
+
+
+def points(pairs) -> tuple:
+    """The points that junctions joining the particle ``pairs`` (``(a, b)`` global indices) make: a tuple of sorted
+    tuples of the particles joined into each (union-find)."""
+    root = {}
+
+    def find(i):
+        while root.setdefault(i, i) != i:
+            i = root[i]
+        return i
+
+    for a, b in pairs:
+        root[find(a)] = find(b)
+    groups = {}
+    for i in sorted(root):
+        groups.setdefault(find(i), []).append(i)
+    return tuple(tuple(g) for g in groups.values())

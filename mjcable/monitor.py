@@ -164,7 +164,7 @@ def fix(scene: Scene, model: str, settings, dt: float, check: str) -> str:
     if model == "flexrod":
         from mjcable.mjcf import flexrod  # the generators are imported by the catalogue; here only when needed
 
-        need = flexrod.stable_substeps(scene, dt)
+        need = max(flexrod.stable_substeps(scene.cable_scene(c), dt) for c in range(len(scene.cables)))
         if need > substeps:
             return f"use substeps >= {need} (mjcable.mjcf.flexrod.stable_substeps)"
         return f"{generic}; flexrod's edges are explicit springs, so a heavy load on a light cable needs more"

@@ -1,4 +1,5 @@
-"""The rigid, static obstacles of a scene: floors, boxes, cylinders, capsules and spheres.
+"""The rigid, static obstacles of a scene: floors, boxes, cylinders, capsules and spheres, and the check that a cable
+starts outside them (:func:`check_start_clear`).
 
 Frozen dataclasses in SI units, validated on construction; re-exported by :mod:`mjcable.scene`.
 """
@@ -6,17 +7,20 @@ Frozen dataclasses in SI units, validated on construction; re-exported by :mod:`
 from __future__ import annotations
 
 import dataclasses
-from typing import ClassVar, Optional, Tuple
+from typing import ClassVar, Optional
 
-from mjcable import _validate
+import numpy as np
 
-__all__ = ["Obstacle", "Floor", "Box", "Cylinder", "Capsule", "Sphere"]
+from mjcable import _validate, geometry
+from mjcable._validate import Vec3, set_field as _set
 
-Vec3 = Tuple[float, float, float]
+__all__ = ["Obstacle", "Floor", "Box", "Cylinder", "Capsule", "Sphere", "START_CONTACT_TOLERANCE", "check_start_clear"]
 
+# m: how far a cable's surface may start inside an obstacle (round-off of a cable laid exactly on a surface,
+# far below any contact margin); deeper, MuJoCo's contacts and the solvers' projections throw it out at up to
+# 1000 m/s on the first step.
+START_CONTACT_TOLERANCE = 1e-6
 
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,3 +93,18 @@ class Capsule(Cylinder):
     """A capsule of ``radius`` and cylinder ``half_length`` metres along its local z axis."""
 
     shape: ClassVar[str] = "capsule"
+
+
+def check_start_clear(cable, obstacles: tuple, named: str = "") -> None:
+    """Raise if ``cable`` (a :class:`mjcable.scene.CableSpec`) starts with its surface more than
+    :data:`START_CONTACT_TOLERANCE` inside one of ``obstacles`` (``named``: which cable, for the message)."""
+    for k, ob in enumerate(obstacles):
+        distances, _ = geometry.signed_distances(cable.particles, ob)
+        depth = cable.radius - distances  # how far the cable's surface reaches into the obstacle, m
+        i = int(np.argmax(depth))
+        if depth[i] > START_CONTACT_TOLERANCE:
+            raise ValueError(
+                f"obstacles[{k}] ({type(ob).__name__} at pos={ob.pos}) holds the cable's start: particle {i}{named} "
+                f"at {np.round(cable.particles[i], 6).tolist()} is {depth[i]:.4g} m deep (the cable's radius "
+                f"{cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move the obstacle or "
+                f"the cable's points")

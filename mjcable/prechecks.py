@@ -68,16 +68,15 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
     Raises:
       ValueError: where the model's own rule says no result can be right.
     """
-    if len(scene.cables) > 1:  # (the checks of one cable's chain: not yet for several)
-        for cable in scene.cables:
-            _ignored(Scene(cable), entry, settings)
-        return
-    _ignored(scene, entry, settings)
-    _fall(scene, entry, settings, dt)
-    if entry.check is not None:
-        entry.check(scene, settings, dt)
-    if entry.family == "particle":
-        _iterations(scene, entry, settings, dt)
+    several = len(scene.cables) > 1
+    for c in range(len(scene.cables)):  # several cables: each one's rules (the junctions' loads left out)
+        one = scene.cable_scene(c) if several else scene
+        _ignored(one, entry, settings)
+        _fall(one, entry, settings, dt)
+        if entry.check is not None:
+            entry.check(one, settings, dt)
+        if entry.family == "particle" and not several:  # (the solvers' iterations over several chains: not yet)
+            _iterations(one, entry, settings, dt)
 
 
 def _warn(message: str) -> None:

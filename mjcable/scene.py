@@ -20,9 +20,11 @@ from typing import Optional
 
 import numpy as np
 
-from mjcable import _validate, geometry, spline
+from mjcable import _validate, geometry, joins, spline
+from mjcable._validate import set_field as _set
+from mjcable import obstacles as obstacles_
 from mjcable.joins import BODY_PIN_TOLERANCE, JUNCTION_TOLERANCE, PIN_KINDS, Junction, Pin
-from mjcable.obstacles import Box, Capsule, Cylinder, Floor, Obstacle, Sphere
+from mjcable.obstacles import START_CONTACT_TOLERANCE, Box, Capsule, Cylinder, Floor, Obstacle, Sphere
 
 __all__ = [
     "GRAVITY",
@@ -58,15 +60,7 @@ BODY_PIN_REACH = 2
 # there anyway (the ``joints`` chain's mass matrix has ~(3n)²/2 entries: 3.6 GB at 10⁴ segments). Without a limit
 # a typo such as 10**9 allocates tens of GB before anything is built.
 MAX_SEGMENTS = 100_000
-# m: how far the cable's surface may start inside an obstacle (round-off of a cable laid exactly on a surface,
-# far below any contact margin); deeper, MuJoCo's contacts and the solvers' projections throw it out at up to
-# 1000 m/s on the first step.
-START_CONTACT_TOLERANCE = 1e-6
 _ROUND_OFF = 1e-9  # relative: lengths equal to this are equal
-
-
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -290,8 +284,8 @@ class Scene:
 
     Raises:
       ValueError: a bad cable, pin, junction or obstacle sequence, a pin or junction out of range, two pins on one
-        particle, a junction whose particles start apart, a cable that starts inside an obstacle (naming the
-        obstacle, the particle and the depth), an unreadable world, an unknown keyframe or body, or a body pin whose
+        particle, a junction whose particles start apart, two cables that start inside each other (away from their
+        junctions), a cable that starts inside an obstacle (naming the obstacle, the particle and the depth), an unreadable world, an unknown keyframe or body, or a body pin whose
         point starts more than :data:`BODY_PIN_TOLERANCE` from its particle.
 
     Example::
@@ -322,10 +316,11 @@ class Scene:
         _set(self, "junctions", _sequence("junctions", self.junctions, Junction,
                                           "Junction instances, e.g. (Junction((0, -1), (1, 0)),)"))
         self._check_junctions()
+        self._check_cables_apart()
         obstacles = _sequence("obstacles", self.obstacles, Obstacle,
                               "Floor, Box, Cylinder, Capsule or Sphere instances, e.g. (Floor(),)")
         for c, cable in enumerate(self.cables):
-            _check_start_clear(cable, obstacles, self._named(c))
+            obstacles_.check_start_clear(cable, obstacles, self._named(c))
         _set(self, "obstacles", obstacles)
         if not isinstance(self.name, str):
             raise ValueError(f"name must be a str, got {self.name!r}")
@@ -373,6 +368,10 @@ class Scene:
         p.setflags(write=False)
         return p
 
+    def cable_of(self, i: int) -> int:
+        """The cable (an index into :attr:`cables`) of global particle ``i`` (0 <= i < :attr:`n_particles`)."""
+        return next(c for c, s in enumerate(self.cable_slices) if i < s.stop)
+
     def _global(self, cable: int, index: int) -> int:
         """The global particle index of particle ``index`` (negative from the end) of cable ``cable``."""
         return self.cable_slices[cable].start + index % self.cables[cable].n_particles
@@ -385,7 +384,7 @@ class Scene:
         """`` (cable c, index k)`` for global particle ``i`` in a scene of several cables, nothing for one."""
         if isinstance(self.cable, CableSpec):
             return ""
-        c = next(c for c, s in enumerate(self.cable_slices) if i < s.stop)
+        c = self.cable_of(i)
         return f" (cable {c}, index {i - self.cable_slices[c].start})"
 
     def _check_end(self, what: str, cable: int, index: int) -> None:
@@ -440,6 +439,40 @@ class Scene:
                     f"junctions[{j}]: its particles {junction.a} at {np.round(p[a], 6).tolist()} and {junction.b} at "
                     f"{np.round(p[b], 6).tolist()} start {gap:.4g} m apart (allowed: {JUNCTION_TOLERANCE:g} m); "
                     f"start the two cables' points there at one point")
+
+    def junction_points(self) -> tuple:
+        """The points that junctions make: a tuple of sorted tuples of the global particles joined into each
+        (a Y-harness's two junctions ``(0, -1)–(1, -1)`` and ``(0, -1)–(2, -1)`` make one point of three)."""
+        return joins.points([self.junction_particles(j) for j in range(len(self.junctions))])
+
+    def _check_cables_apart(self) -> None:
+        """Raise if two cables start inside each other (their surfaces deeper than :data:`START_CONTACT_TOLERANCE`),
+        but for the segments near a point where junctions join them (within
+        :meth:`CableSpec.overlapping_neighbours` + 1 particles of it)."""
+        near = {}  # (point, cable) -> the cable's segments near that junction point
+        for g, point in enumerate(self.junction_points()):
+            for i in point:
+                c = self.cable_of(i)
+                local, reach = i - self.cable_slices[c].start, self.cables[c].overlapping_neighbours() + 1
+                near.setdefault((g, c), set()).update(range(max(local - reach, 0),
+                                                            min(local + reach, self.cables[c].n_segments)))
+        for c, d in ((c, d) for c in range(len(self.cables)) for d in range(c + 1, len(self.cables))):
+            one, other = self.cables[c], self.cables[d]
+            gap = one.radius + other.radius
+            lo = np.maximum(one.particles.min(axis=0), other.particles.min(axis=0)) - gap
+            if np.any(lo > np.minimum(one.particles.max(axis=0), other.particles.max(axis=0)) + gap):
+                continue  # their boxes, grown by the radii, don't meet
+            depth = gap - geometry.segment_distances(one.particles, other.particles)
+            for (g, e), segments in near.items():
+                if e == c and (g, d) in near:
+                    depth[np.ix_(sorted(segments), sorted(near[g, d]))] = -np.inf
+            i, j = np.unravel_index(int(np.argmax(depth)), depth.shape)
+            if depth[i, j] > START_CONTACT_TOLERANCE:
+                raise ValueError(
+                    f"cables {c} and {d} start inside each other: segment {i} of cable {c} and segment {j} of cable "
+                    f"{d} are {gap - depth[i, j]:.4g} m apart, {depth[i, j]:.4g} m less than their radii's sum "
+                    f"{gap:g} m (up to {START_CONTACT_TOLERANCE:g} m is allowed); move the cables' points apart, or "
+                    f"join them at a point with a Junction")
 
     def _check_body_pins(self) -> None:
         p = self.particles
@@ -500,6 +533,17 @@ class Scene:
         """Indices into ``pins`` of the gripper pins."""
         return tuple(k for k, p in enumerate(self.pins) if p.kind == "gripper")
 
+    def cable_scene(self, c: int) -> "Scene":
+        """Cable ``c`` alone: a one-cable scene with its pins (``Pin.cable`` 0, in ``pins`` order), the obstacles and
+        the world, without junctions (the scene itself where it is one cable without junctions). Per-cable rules
+        (stability, warnings) and the native models' per-cable builds use it; what the other cables and the junctions
+        add to its load is not in it."""
+        if isinstance(self.cable, CableSpec) and not self.junctions:
+            return self
+        pins = tuple(dataclasses.replace(pin, cable=0) for pin in self.pins if pin.cable == c)
+        return Scene(self.cables[c], pins, self.obstacles, name=f"{self.name}_cable{c}", world=self.world,
+                     keyframe=self.keyframe)
+
     def with_cable(self, **overrides) -> "Scene":
         """A copy with ``CableSpec`` fields replaced (e.g. ``n_segments=100``); one-cable scenes only.
 
@@ -536,19 +580,3 @@ def _sequence(name: str, value, kind: type, what: str) -> tuple:
         if not isinstance(item, kind):
             raise ValueError(f"{name}[{k}] must be one of {what}, got {item!r}")
     return items
-
-
-def _check_start_clear(cable: CableSpec, obstacles: tuple, named: str = "") -> None:
-    """Raise if the cable's surface starts more than :data:`START_CONTACT_TOLERANCE` inside an obstacle (``named``:
-    which cable, for the message)."""
-    for k, ob in enumerate(obstacles):
-        distances, _ = geometry.signed_distances(cable.particles, ob)
-        depth = cable.radius - distances  # how far the cable's surface reaches into the obstacle, m
-        i = int(np.argmax(depth))
-        if depth[i] > START_CONTACT_TOLERANCE:
-            raise ValueError(
-                f"obstacles[{k}] ({type(ob).__name__} at pos={ob.pos}) holds the cable's start: particle {i}{named} "
-                f"at {np.round(cable.particles[i], 6).tolist()} is {depth[i]:.4g} m deep (the cable's radius "
-                f"{cable.radius:g} m included; up to {START_CONTACT_TOLERANCE:g} m is allowed); move the obstacle or "
-                f"the cable's points")
-

@@ -55,8 +55,9 @@ class Trajectory:
 
     Attributes:
       times: ``(k,)`` simulated time in seconds of each row.
-      positions: ``(k, n_segments + 1, 3)`` particle positions in metres.
-      velocities: ``(k, n_segments + 1, 3)`` particle velocities in m/s.
+      positions: ``(k, N, 3)`` particle positions in metres, N = ``scene.n_particles`` (``n_segments + 1`` for one
+        cable; several cables in cable order, cut with ``scene.cable_slices``).
+      velocities: ``(k, N, 3)`` particle velocities in m/s.
     """
 
     times: np.ndarray
@@ -148,17 +149,18 @@ class Simulator:
 
     @property
     def positions(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` centreline particles in world coordinates (metres), from the first control point."""
+        """``(scene.n_particles, 3)`` centreline particles in world coordinates (metres), from the first control point;
+        several cables in cable order (``scene.cable_slices`` cuts them)."""
         return self._positions.copy()
 
     @property
     def velocities(self) -> np.ndarray:
-        """``(n_segments + 1, 3)`` particle velocities in m/s, from the model's own state."""
+        """``(scene.n_particles, 3)`` particle velocities in m/s, from the model's own state (cable order)."""
         return self._backend.velocities()
 
     @property
     def particle_masses(self) -> np.ndarray:
-        """``(n_segments + 1,)`` lumped particle masses in kg, point masses added with :meth:`add_point_mass`
+        """``(scene.n_particles,)`` lumped particle masses in kg, point masses added with :meth:`add_point_mass`
         included (capsule chains: each segment's mass split between its two particles)."""
         return self._backend.particle_masses()
 

@@ -116,6 +116,8 @@ class World:
         tension a body pin puts on the cable (the models' stability rules)."""
         m = self.model
         body = self.body_id(name)
+        if m.nv == 0:  # a world that nothing moves
+            return 0.0
         d = mujoco.MjData(m)
         d.qpos[:], d.mocap_pos[:], d.mocap_quat[:] = self.data.qpos, self.data.mocap_pos, self.data.mocap_quat
         mujoco.mj_forward(m, d)  # qvel = 0: the bias force is gravity's alone

@@ -20,6 +20,9 @@ def cable(points, n=10, **kw):
 A = cable([[0, 0, 1], [0.6, 0, 1]])                        # 11 particles, ends at x = 0 and 0.6
 B = cable([[0.6, 0, 1], [0.6, 0.6, 1]], n=6)               # 7 particles, starts at A's end
 C = cable([[0.6, 0, 1], [1.2, 0, 0.9]], n=8)               # 9 particles, starts at A's end
+# B and C moved off A's end, 5 cm up and down: cables that must not touch at the start (scenes without junctions)
+B_ = cable([[0.6, 0, 1.05], [0.6, 0.6, 1.05]], n=6)
+C_ = cable([[0.6, 0, 0.95], [1.2, 0, 0.85]], n=8)
 
 
 def test_one_cable_scene_keeps_its_cable_and_numbers():
@@ -32,8 +35,8 @@ def test_one_cable_scene_keeps_its_cable_and_numbers():
 
 
 def test_several_cables_concatenate_in_cable_order():
-    scene = mjcable.Scene([A, B, C])
-    assert scene.cable == (A, B, C) and scene.cables == (A, B, C)
+    scene = mjcable.Scene([A, B_, C_])
+    assert scene.cable == (A, B_, C_) and scene.cables == (A, B_, C_)
     assert scene.n_particles == 11 + 7 + 9
     assert scene.cable_slices == (slice(0, 11), slice(11, 18), slice(18, 27))
     for c, s in zip(scene.cables, scene.cable_slices):
@@ -44,15 +47,15 @@ def test_several_cables_concatenate_in_cable_order():
 
 def test_pins_count_within_their_cable():
     pins = (mjcable.Pin(0), mjcable.Pin(-1, cable=1), mjcable.Pin(3, "gripper", cable=2), mjcable.Pin(-1, cable=0))
-    scene = mjcable.Scene((A, B, C), pins)
+    scene = mjcable.Scene((A, B_, C_), pins)
     assert [scene.pin_particle(k) for k in range(4)] == [0, 17, 21, 10]
     assert [scene.pin_cable(k) for k in range(4)] == [0, 1, 2, 0]
-    np.testing.assert_array_equal(scene.particles[scene.pin_particle(1)], B.particles[-1])
+    np.testing.assert_array_equal(scene.particles[scene.pin_particle(1)], B_.particles[-1])
     assert scene.grippers == (2,)
 
 
 def test_clamp_neighbour_stays_in_the_pins_cable():
-    scene = mjcable.Scene((A, B), (mjcable.Pin(-1, clamp=True), mjcable.Pin(0, clamp=True, cable=1),
+    scene = mjcable.Scene((A, B_), (mjcable.Pin(-1, clamp=True), mjcable.Pin(0, clamp=True, cable=1),
                                    mjcable.Pin(-1, clamp=True, cable=1)))
     assert [scene.clamp_neighbour(k) for k in range(3)] == [9, 12, 16]
 
@@ -78,13 +81,13 @@ def test_a_loop_joins_one_cables_ends():
 ])
 def test_pin_out_of_its_cable_names_it(pin, message):
     with pytest.raises(ValueError, match=message):
-        mjcable.Scene((A, B, C), (pin,))
+        mjcable.Scene((A, B_, C_), (pin,))
 
 
 def test_two_pins_on_one_global_particle_are_refused():
     with pytest.raises(ValueError, match=r"pins\[0\] and pins\[1\] both hold particle 17 \(cable 1, index 6\)"):
-        mjcable.Scene((A, B, C), (mjcable.Pin(-1, cable=1), mjcable.Pin(6, cable=1)))
-    mjcable.Scene((A, B, C), (mjcable.Pin(0, cable=1), mjcable.Pin(0, cable=2)))  # same index, other cable: fine
+        mjcable.Scene((A, B_, C_), (mjcable.Pin(-1, cable=1), mjcable.Pin(6, cable=1)))
+    mjcable.Scene((A, B_, C_), (mjcable.Pin(0, cable=1), mjcable.Pin(0, cable=2)))  # same index, other cable: fine
 
 
 def test_pin_cable_must_be_a_non_negative_integer():
@@ -144,7 +147,7 @@ def test_bad_cable_sequence(value, message):
 
 def test_junctions_must_be_a_sequence_of_junctions():
     with pytest.raises(ValueError, match="junctions must be a sequence of Junction instances"):
-        mjcable.Scene((A, B), junctions=mjcable.Junction((0, -1), (1, 0)))
+        mjcable.Scene((A, B_), junctions=mjcable.Junction((0, -1), (1, 0)))
 
 
 def test_every_cable_must_start_clear_of_the_obstacles():
@@ -165,7 +168,7 @@ def test_every_cable_must_start_clear_of_the_world():
 
 
 def test_with_cable_refuses_several_cables():
-    scene = mjcable.Scene((A, B))
+    scene = mjcable.Scene((A, B_))
     with pytest.raises(ValueError, match=r"with_cable applies to a scene of one cable, this one has 2; use "
                                          r"dataclasses.replace"):
         scene.with_cable(n_segments=20)
@@ -173,8 +176,8 @@ def test_with_cable_refuses_several_cables():
 
 
 def test_max_tension_counts_every_cables_weight():
-    scene = mjcable.Scene((A, B, C))
-    assert scene.max_tension == pytest.approx(9.81 * (A.mass + B.mass + C.mass), rel=1e-15)
+    scene = mjcable.Scene((A, B_, C_))
+    assert scene.max_tension == pytest.approx(9.81 * (A.mass + B_.mass + C_.mass), rel=1e-15)
 
 
 def test_scenes_pickle_and_compare():
@@ -190,7 +193,7 @@ def _unable(capability):
 
 @pytest.mark.parametrize("model", _unable("several_cables"))
 def test_a_model_without_several_cables_refuses_them_up_front(model):
-    scene = mjcable.Scene((A, B), name="pair")
+    scene = mjcable.Scene((A, B_), name="pair")
     with pytest.raises(ValueError, match=rf"^{model}: several cables \(2\) in scene 'pair': model '{model}' "):
         mjcable.Simulator(scene, model)
     with pytest.raises(ValueError, match=rf"^{model}: several cables \(2\)"):
@@ -404,3 +407,30 @@ def test_a_clamped_junction_is_refused_by_the_particle_solvers():
     scene = mjcable.Scene((A, leg), junctions=(mjcable.Junction((0, -1), (1, 0), clamp=True),))
     with pytest.raises(ValueError, match=r"junctions\[0\]: the particle solvers join two particles .* clamp=True"):
         mjcable.Simulator(scene, "xpbd")
+def test_cable_scene_is_one_cable_with_its_own_pins():
+    pins = (mjcable.Pin(0), mjcable.Pin(-1, "gripper", cable=1), mjcable.Pin(2, cable=1))
+    scene = mjcable.Scene((A, B, C_), pins, obstacles=(mjcable.Floor(pos=(0, 0, 0.5)),),
+                          junctions=(mjcable.Junction((0, -1), (1, 0)),))
+    one = scene.cable_scene(1)
+    assert one.cable is B and one.junctions == () and one.obstacles == scene.obstacles
+    assert one.pins == (mjcable.Pin(-1, "gripper"), mjcable.Pin(2))
+    assert scene.cable_scene(2).pins == () and scene.cable_scene(0).pins == (mjcable.Pin(0),)
+    alone = mjcable.Scene(A, (mjcable.Pin(0),))
+    assert alone.cable_scene(0) is alone
+    assert [scene.cable_of(i) for i in (0, 10, 11, 17, 18, 26)] == [0, 0, 1, 1, 2, 2]
+
+
+def test_cables_must_not_start_inside_each_other():
+    """Two cables whose surfaces overlap at the start (away from a junction that joins them there) are refused, as a
+    cable inside an obstacle is: the contacts would throw them apart. Touching is fine, and so is a junction."""
+    with pytest.raises(ValueError, match=r"cables 0 and 1 start inside each other: segment 9 of cable 0 and segment 0 "
+                                         r"of cable 1 are 0 m apart, 0.01 m less than their radii's sum 0.01 m"):
+        mjcable.Scene((A, B))
+    mjcable.Scene((A, B), junctions=(mjcable.Junction((0, -1), (1, 0)),))
+    over = cable([[0.3, -0.3, 1.0 + 0.0099], [0.3, 0.3, 1.0 + 0.0099]])  # across A, 0.1 mm into it
+    with pytest.raises(ValueError, match=r"cables 0 and 1 start inside each other: segment 4 of cable 0 and "
+                                         r"segment 4 of cable 1 are 0.0099 m apart"):
+        mjcable.Scene((A, over))
+    mjcable.Scene((A, cable([[0.3, -0.3, 1.01], [0.3, 0.3, 1.01]])))  # lying on A: touching
+    with pytest.raises(ValueError, match=r"cables 0 and 2 start inside each other"):  # C meets A's end unjoined
+        mjcable.Scene((A, B, C), junctions=(mjcable.Junction((0, -1), (1, 0)),))

@@ -28,7 +28,7 @@ import numpy as np
 from mjcable import monitor
 from mjcable.backends.native_energy import CableEnergy
 from mjcable.backends.protocol import Energy, RunResult
-from mjcable.mjcf import data, joints, world
+from mjcable.mjcf import cables, data, joints, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
@@ -44,19 +44,28 @@ DIVERGENCE_WARNINGS = {  # index into data.warning -> what it means
     int(mujoco.mjtWarning.mjWARN_CNSTRFULL): "constraint buffer full (mjWARN_CNSTRFULL)",
 }
 _CONNECT_ROWS = 3  # a connect equality constrains three position components
+_WELD_ROWS = 6  # a weld: three position components, then three of orientation
 
 
-def spec_builder(generate: Callable[..., mujoco.MjSpec]) -> Callable[[Scene, NativeSettings, float], mujoco.MjSpec]:
+def spec_builder(generate: Callable[..., mujoco.MjSpec], *,
+                 frames: bool = False) -> Callable[[Scene, NativeSettings, float], mujoco.MjSpec]:
     """The catalogue's builder ``(scene, settings, dt) -> MjSpec`` for a native generator
     ``generate(scene, *, timestep, self_collision)``: MuJoCo steps at ``dt / substeps``, and a scene where nothing
     can touch skips MuJoCo's collision pipeline altogether. In a user world the cable goes into the user's spec
-    (:func:`mjcable.mjcf.world.finish`)."""
+    (:func:`mjcable.mjcf.world.finish`). Several cables, junctions and loops: :func:`mjcable.mjcf.cables.assemble`
+    (``frames``: the model's cable is segment bodies, whose clamped junctions are welds)."""
+
+    model = generate.__module__.rsplit(".", 1)[-1]
 
     def build(scene: Scene, settings: NativeSettings, dt: float) -> mujoco.MjSpec:
+        options = dict(timestep=dt / settings.substeps, self_collision=settings.self_collision)
         with world.user_names(scene):
-            spec = world.finish(generate(scene, timestep=dt / settings.substeps,
-                                         self_collision=settings.self_collision), scene)
-        if not scene.obstacles and scene.world is None and not settings.self_collision:
+            if len(scene.cables) > 1 or scene.junctions:
+                made = cables.assemble(scene, generate, model, frames=frames, **options)
+            else:
+                made = generate(scene, **options)
+            spec = world.finish(made, scene)
+        if not scene.obstacles and scene.world is None and not settings.self_collision and len(scene.cables) == 1:
             spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
         return spec
 
@@ -84,7 +93,7 @@ class NativeBackend:
         try:
             self.mj_model = entry.build(scene, settings, dt).compile()
         except ValueError as raw:  # MuJoCo's compiler: say which input it is about
-            cable = scene.cable
+            cable = min(scene.cables, key=lambda c: c.mass / c.n_segments)  # the lightest segments
             error = str(raw).replace("\n", "; ")
             raise ValueError(f"{self.name}: MuJoCo cannot compile this scene ({error}); the cable's mass "
                              f"{cable.mass:g} kg over {cable.n_segments} segments (radius {cable.radius:g} m) gives "
@@ -94,25 +103,34 @@ class NativeBackend:
                              f"scene: {error}") from None
         self.mj_data = data.new_data(self.mj_model)  # (the cable plugin reads it before MuJoCo initialises it)
         m = self.mj_model
-        n = scene.cable.n_particles
-        self._sites = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i)) for i in range(n)])
+        n = scene.n_particles
+        self._sites = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, cables.particle_name(scene, i))
+                                for i in range(n)])
         if np.any(self._sites < 0):
             raise RuntimeError(f"model {self.name!r} lacks particle sites")  # pragma: no cover - a generator bug
         self._site_body = m.site_bodyid[self._sites]
         self._has_frames = entry.frames
         self._gripper_mocap = np.array([int(m.body_mocapid[_name2id(m, mujoco.mjtObj.mjOBJ_BODY,
-                                                                     world.gripper_body(k))])
+                                                                     cables.pin_name(scene, k, world.gripper_body))])
                                         for k in scene.grippers], dtype=np.int64)
         self._mocap_of_pin = dict(zip(scene.grippers, self._gripper_mocap.tolist()))
         # pin k -> (equality ids of pin{k}, pin{k}_clamp and pin{k}_roll, -1 where absent)
-        self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, world.pin_equality(k, clamp=c, roll=r))
+        self._pin_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY,
+                                           cables.pin_name(scene, k, world.pin_equality, clamp=c, roll=r))
                                   for c, r in ((False, False), (True, False), (False, True))]
                                  for k in range(len(scene.pins))], dtype=np.int64).reshape(-1, 3)
+        # junction j -> its connect (or weld) and its clamp's tendon equality (-1: none), and the sites of the
+        # clamp's tendon ends, the inward neighbours of particles a and b
+        self._junction_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, cables.junction_equality(j, clamp=c))
+                                       for c in (False, True)] for j in range(len(scene.junctions))],
+                                     dtype=np.int64).reshape(-1, 2)
+        self._junction_ends = np.array([[self._sites[cables.inward(scene, i)] for i in scene.junction_particles(j)]
+                                        for j in range(len(scene.junctions))], dtype=np.int64).reshape(-1, 2)
         # pin k -> the sites its second (a clamp body's, else the neighbour particle's) and third connects hold
         # (-1: none)
         self._clamp_site = np.array([self._clamp_site_of(k) if self._pin_eq[k, 1] >= 0 else -1
                                      for k in range(len(scene.pins))], dtype=np.int64)
-        self._roll_site = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.roll_site(scene.pin_particle(k)))
+        self._roll_site = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, self._pin_site(k, world.roll_site))
                                     if self._pin_eq[k, 2] >= 0 else -1 for k in range(len(scene.pins))],
                                    dtype=np.int64)
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]
@@ -123,11 +141,15 @@ class NativeBackend:
         # kinematic tree's pins can't tear), with their anchor sites
         self._limits = monitor.limits(scene, entry)
         self._lim = monitor.limits_record(self._limits, dt)
-        self._rest = np.full(scene.cable.n_segments, scene.cable.segment_length)
+        # segment rest lengths in the particles' order; between two cables no segment (inf: never strained)
+        self._rest = np.concatenate([np.append(np.full(c.n_segments, c.segment_length), np.inf)
+                                     for c in scene.cables])[:-1]
+        self._radius = min(c.radius for c in scene.cables)
         held = [k for k in range(len(scene.pins)) if self._pin_eq[k, 0] >= 0]
         self._check_pins = np.array(held, dtype=np.int64)
         self._check_particles = np.array([scene.pin_particle(k) for k in held], dtype=np.int64)
-        self._check_anchors = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.anchor_site(k)) for k in held],
+        self._check_anchors = np.array([_name2id(m, mujoco.mjtObj.mjOBJ_SITE,
+                                                 cables.pin_name(scene, k, world.anchor_site)) for k in held],
                                        dtype=np.int64)
         # the depth check's contacts: a cable geom (or the flex) against anything but a body the cable is pinned to
         # (a pin may sit inside its body)
@@ -212,7 +234,7 @@ class NativeBackend:
             if self.mj_model.nflex:
                 ours |= (contact.flex[:ncon] >= 0).any(axis=1)
             ours &= ~((geoms >= 0) & self._held_geoms[known]).any(axis=1)
-            deep = ours & (dist < -self.scene.cable.radius)
+            deep = ours & (dist < -self._radius)
             if deep.any():
                 c = int(np.argmin(np.where(deep, dist, np.inf)))
                 return monitor.breach(WARN_DEPTH, -float(dist[c]), -1, self.scene, lim, step=step)
@@ -262,13 +284,14 @@ class NativeBackend:
             mujoco.mj_flex(m, d)  # flexvert_xpos too (rendering draws the flex from it)
 
     def _equality_force(self, eq: int) -> np.ndarray:
-        """The (3,) force in N that connect equality ``eq`` exerted on its first site in the last constraint solve."""
+        """The (3,) force in N that connect (or weld) equality ``eq`` exerted on its first site (body) in the last
+        constraint solve (a weld's first three rows)."""
         d = self.mj_data
         nefc = d.nefc
         rows = np.flatnonzero((d.efc_type[:nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (d.efc_id[:nefc] == eq))
-        if len(rows) != _CONNECT_ROWS:  # inactive (a released socket) or not in the last solve
+        if len(rows) not in (_CONNECT_ROWS, _WELD_ROWS):  # inactive (a released socket) or not in the last solve
             return np.zeros(3)
-        return d.efc_force[rows].copy()
+        return d.efc_force[rows[:_CONNECT_ROWS]].copy()
 
     def _release_sockets(self) -> None:
         d = self.mj_data
@@ -299,7 +322,7 @@ class NativeBackend:
         return v
 
     def particle_masses(self) -> np.ndarray:
-        return self.scene.cable.particle_masses + self._added
+        return np.concatenate([c.particle_masses for c in self.scene.cables]) + self._added
 
     def energy(self) -> Energy:
         """The cable's energy: MuJoCo's own terms restricted to the cable, plus flex bending and the cable plugin
@@ -327,6 +350,22 @@ class NativeBackend:
 
     def pin_forces(self) -> np.ndarray:
         return self._pin_wrenches()[:, 3:]
+
+    def junction_forces(self) -> np.ndarray:
+        """``(len(scene.junctions), 3)`` N: the force each junction exerted on cable b in the last constraint solve:
+        its connect's (or weld's) on particle b (the equality's first site or body; −that on particle a), plus a
+        point-mass clamp's tendon equality's on b's neighbour (its force f pulls the neighbours together along
+        the tendon: f (x_b' − x_a') / |x_b' − x_a'| on b')."""
+        d = self.mj_data
+        out = np.zeros((len(self._junction_eq), 3))
+        for j, (eq, clamp) in enumerate(self._junction_eq.tolist()):
+            out[j] = self._equality_force(eq)
+            if clamp >= 0:
+                rows = np.flatnonzero((d.efc_type[:d.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+                                      & (d.efc_id[:d.nefc] == clamp))
+                span = d.site_xpos[self._junction_ends[j, 1]] - d.site_xpos[self._junction_ends[j, 0]]
+                out[j] += float(d.efc_force[rows].sum()) * span / np.linalg.norm(span)
+        return out
 
     def pin_torques(self) -> np.ndarray:
         return self._pin_wrenches()[:, :3]
@@ -361,9 +400,14 @@ class NativeBackend:
     def _clamp_site_of(self, k: int) -> int:
         """The site that clamped pin ``k``'s second connect holds: its clamp body's (``joints``, ``composite``:
         :func:`mjcable.mjcf.world.clamp_site`), else the neighbour particle's."""
-        i = self.scene.pin_particle(k)
-        site = _name2id(self.mj_model, mujoco.mjtObj.mjOBJ_SITE, world.clamp_site(i))
+        site = _name2id(self.mj_model, mujoco.mjtObj.mjOBJ_SITE, self._pin_site(k, world.clamp_site))
         return site if site >= 0 else int(self._sites[self.scene.clamp_neighbour(k)])
+
+    def _pin_site(self, k: int, name) -> str:
+        """``name(i)`` of pin ``k``'s particle i within its cable, with the cable's prefix (a clamp's sites)."""
+        scene = self.scene
+        c = scene.pin_cable(k)
+        return cables.prefix(scene, c) + name(scene.pin_particle(k) - scene.cable_slices[c].start)
 
     def gripper_positions(self) -> np.ndarray:
         return self.mj_data.mocap_pos[self._gripper_mocap].copy()
@@ -379,12 +423,18 @@ class NativeBackend:
         from the start pose: the frames are then the twist-free start frames of every model
         (:func:`mjcable.solvers.state.start_frames`), turned with the bodies. Body j of the capsule chain spans
         particles ``order[j]`` (its origin) to ``order[j + 1]`` (:func:`mjcable.mjcf.joints.tree_order`: backwards
-        for a tree rooted at the cable's far end)."""
-        order = joints.tree_order(self.scene)
-        bodies = np.empty(self.scene.cable.n_segments, dtype=np.int64)
-        bodies[np.minimum(order[:-1], order[1:])] = self._site_body[order[:-1]]
-        start = start_frames(self.scene.cable.particles)
-        return bodies, quat_mul(self.mj_data.xquat[bodies] * [1.0, -1.0, -1.0, -1.0], start)
+        for a tree rooted at the cable's far end). Several cables: ``(Σ nᵢ,)`` and ``(Σ nᵢ, 4)``, in cable order."""
+        scene = self.scene
+        bodies, start = [], []
+        for c, cable in enumerate(scene.cables):
+            first = scene.cable_slices[c].start
+            order = joints.tree_order(scene.cable_scene(c)) + first
+            own = np.empty(cable.n_segments, dtype=np.int64)
+            own[np.minimum(order[:-1], order[1:]) - first] = self._site_body[order[:-1]]
+            bodies.append(own)
+            start.append(start_frames(cable.particles))
+        bodies = np.concatenate(bodies)
+        return bodies, quat_mul(self.mj_data.xquat[bodies] * [1.0, -1.0, -1.0, -1.0], np.concatenate(start))
 
     def move_gripper(self, k: int, position: np.ndarray, orientation: Optional[np.ndarray] = None) -> None:
         i = self._mocap_of_pin[k]

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mjcable.backends.protocol import Energy
-from mjcable.mjcf import composite, joints
+from mjcable.mjcf import cables, composite, joints
 from mjcable.scene import Scene
 
 __all__ = ["CableEnergy"]
@@ -55,13 +55,13 @@ class CableEnergy:
 
     Args:
       m: the compiled model.
-      sites: ``(n + 1,)`` site ids of the particles ``particle{i}``.
+      sites: ``(N,)`` site ids of the particles ``particle{i}`` (of every cable, in cable order).
       scene: the scene (the cable plugin's moduli and the flex's Young's modulus come from its cable, as the
         generators configure them).
     """
 
     def __init__(self, m: mujoco.MjModel, sites: np.ndarray, scene: Scene):
-        clamps = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, joints.clamp_body_name(k))
+        clamps = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, cables.pin_name(scene, k, joints.clamp_body_name))
                   for k in range(len(scene.pins))]
         bodies = np.unique(np.concatenate([m.site_bodyid[sites], np.array(clamps, dtype=np.int64)]))  # and clamps
         self.bodies = bodies[bodies > 0]
@@ -69,7 +69,7 @@ class CableEnergy:
         self._tendons(m, sites)
         self._balls(m)
         self._plugin(m, scene)
-        self._flexes(m, scene)
+        self._flexes(m, scene, sites)
 
     def _tendons(self, m: mujoco.MjModel, sites: np.ndarray) -> None:
         """Spring tendons between two particle sites: ``(T,)`` ids, ``(T, 2)`` particles, ``(T,)`` stretch (True:
@@ -99,36 +99,47 @@ class CableEnergy:
         self.ball_spring = np.array([m.qpos_spring[a:a + 4] for a in self.ball_qpos]).reshape(-1, 4)
 
     def _plugin(self, m: mujoco.MjModel, scene: Scene) -> None:
-        """The cable plugin's joints (every plugin body after the first, as the plugin pairs them): the body's
-        ``body_quat``, its ball quaternion's qpos address, and the stiffness (G·J, E·I, E·I) / l in N·m/rad."""
-        instance = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_PLUGIN, composite.INSTANCE) if m.nplugin else -1
-        chain = [b for b in self.bodies if instance >= 0 and m.body_plugin[b] == instance][1:]
-        bend, twist = composite.plugin_moduli(scene)
-        radius = m.geom_size[m.body_geomadr[chain], 0]
-        length = np.linalg.norm(m.body_pos[chain], axis=1)
-        self.plugin_quat = m.body_quat[chain].copy()
-        self.plugin_qpos = (m.jnt_qposadr[m.body_jntadr[chain]] + m.body_dofnum[chain] - 3).astype(np.int64)
-        self.plugin_k = (math.pi * radius**4 / 4.0 / length)[:, None] * np.array([2.0 * twist, bend, bend])
+        """The cable plugin's joints (every plugin body after the first, as the plugin pairs them; each cable's
+        instance): the body's ``body_quat``, its ball quaternion's qpos address, and the stiffness (G·J, E·I, E·I) / l
+        in N·m/rad."""
+        quat, qpos, k = [np.zeros((0, 4))], [np.zeros(0, dtype=np.int64)], [np.zeros((0, 3))]
+        for c in range(len(scene.cables)):  # one plugin instance per cable
+            name = cables.prefix(scene, c) + composite.INSTANCE
+            instance = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_PLUGIN, name) if m.nplugin else -1
+            chain = [b for b in self.bodies if instance >= 0 and m.body_plugin[b] == instance][1:]
+            if not chain:
+                continue
+            bend, twist = composite.plugin_moduli(scene.cable_scene(c))
+            radius = m.geom_size[m.body_geomadr[chain], 0]
+            length = np.linalg.norm(m.body_pos[chain], axis=1)
+            quat.append(m.body_quat[chain])
+            qpos.append((m.jnt_qposadr[m.body_jntadr[chain]] + m.body_dofnum[chain] - 3).astype(np.int64))
+            k.append((math.pi * radius**4 / 4.0 / length)[:, None] * np.array([2.0 * twist, bend, bend]))
+        self.plugin_quat, self.plugin_qpos, self.plugin_k = (np.concatenate(a) for a in (quat, qpos, k))
 
-    def _flexes(self, m: mujoco.MjModel, scene: Scene) -> None:
-        """The cable's flexes (all vertex bodies the cable's): their edge springs and, 1D with E > 0, bending."""
+    def _flexes(self, m: mujoco.MjModel, scene: Scene, sites: np.ndarray) -> None:
+        """The cable's flexes (all vertex bodies the cable's; one per cable): their edge springs and, 1D with E > 0,
+        bending."""
         self.flex_edges, self.flex_edge_k, self.flex_bend = [], [], []
         self.flex_rest = m.flexedge_length0.copy()
+        particle = {int(b): i for i, b in enumerate(m.site_bodyid[sites])}  # a vertex body's particle
         for f in range(m.nflex):
             start, num = int(m.flex_vertadr[f]), int(m.flex_vertnum[f])
             if not np.all(np.isin(m.flex_vertbodyid[start:start + num], self.bodies)):
                 continue
+            first = particle[int(m.flex_vertbodyid[start])]
+            cable = scene.cables[scene.cable_of(first)]
             edges = np.arange(m.flex_edgeadr[f], m.flex_edgeadr[f] + m.flex_edgenum[f])
             edges = edges[~m.flexedge_rigid[edges].astype(bool)]
             if m.flex_edgestiffness[f] > 0.0 and len(edges):
                 self.flex_edges.append(edges)
                 self.flex_edge_k.append(float(m.flex_edgestiffness[f]))
-            if m.flex_dim[f] == 1 and scene.cable.young > 0.0 and num > 2:
+            if m.flex_dim[f] == 1 and cable.young > 0.0 and num > 2:
                 chain = m.flex_edge[m.flex_edgeadr[f]:m.flex_edgeadr[f] + m.flex_edgenum[f]]
                 if not np.array_equal(chain, np.column_stack([np.arange(num - 1), np.arange(1, num)])):
                     raise RuntimeError("a 1D cable flex must list its edges (i, i + 1)")  # pragma: no cover
                 rest = m.flexedge_length0[m.flex_edgeadr[f]:m.flex_edgeadr[f] + m.flex_edgenum[f]]
-                k = scene.cable.young * math.pi * float(m.flex_radius[f]) ** 4 / 4.0 / (rest[:-1] + rest[1:])
+                k = cable.young * math.pi * float(m.flex_radius[f]) ** 4 / 4.0 / (rest[:-1] + rest[1:])
                 self.flex_bend.append((start, num, k))
 
     # -- the energy -----------------------------------------------------------------------------------------------

@@ -41,6 +41,7 @@ __all__ = [
     "add_anchor",
     "exclude_overlapping",
     "add_connect",
+    "pin_solref",
     "add_clamp_anchor",
     "pinned_segments",
     "particle_site",
@@ -50,12 +51,16 @@ __all__ = [
     "CABLE_CONTYPE",
     "OBSTACLE_CONTYPE",
     "CAMERA",
+    "CABLE_COLOURS",
     "START_KEY",
     "CONTACT_SOLREF_STEPS",
     "stiffen_obstacle_contacts",
 ]
 
 CAMERA = "overview"
+#: RGBA of each cable's material and drawing (cable c: ``CABLE_COLOURS[c % len(CABLE_COLOURS)]``)
+CABLE_COLOURS = ((0.85, 0.25, 0.12, 1.0), (0.12, 0.45, 0.85, 1.0), (0.2, 0.65, 0.25, 1.0), (0.8, 0.6, 0.1, 1.0),
+                 (0.55, 0.3, 0.75, 1.0), (0.1, 0.65, 0.65, 1.0))
 START_KEY = "start"  # keyframe holding the scene's start pose where a model compiles in another (straight) pose
 _TORSION_ROLL_FRICTION = (0.005, 0.0001)
 _FLOOR_HALF_SIZE = 5.0  # m, rendered extent of a Floor plane
@@ -161,7 +166,7 @@ def _add_materials(spec: mujoco.MjSpec, *, grid: bool, have: frozenset = frozens
                          rgb1=[0.82, 0.84, 0.86], rgb2=[0.72, 0.74, 0.77], width=300, height=300)
         material = spec.add_material(name="grid", texrepeat=[8, 8], reflectance=0.05)
         material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
-    for name, rgba in (("obstacle", [0.62, 0.5, 0.38, 1.0]), ("cable", [0.85, 0.25, 0.12, 1.0]),
+    for name, rgba in (("obstacle", [0.62, 0.5, 0.38, 1.0]), ("cable", list(CABLE_COLOURS[0])),
                        ("gripper", [0.2, 0.4, 0.9, 0.6])):
         if name not in have:
             spec.add_material(name=name, rgba=rgba)
@@ -396,8 +401,13 @@ def add_roll_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position: np.ndar
     return name
 
 
+def pin_solref(timestep: float) -> list:
+    """The stiff equalities' ``solref``: a time constant of ``_PIN_SOLREF_STEPS`` physics steps, critically damped."""
+    return [_PIN_SOLREF_STEPS * timestep, 1.0]
+
+
 def add_connect(spec: mujoco.MjSpec, name: str, site1: str, site2: str, *, timestep: float,
                 solimp: tuple = PIN_SOLIMP) -> None:
     """A stiff site-to-site ``connect`` equality (independent of qpos0, so models may compile straight)."""
     spec.add_equality(name=name, type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_SITE,
-                      name1=site1, name2=site2, solref=[_PIN_SOLREF_STEPS * timestep, 1.0], solimp=solimp)
+                      name1=site1, name2=site2, solref=pin_solref(timestep), solimp=solimp)

@@ -22,10 +22,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mjcable import _validate
+from mjcable.mjcf.world import CABLE_COLOURS
 
-__all__ = ["add_centreline", "add_stripe", "draw_label", "CABLE_RGBA", "STRIPE_RGBA", "CABLE_SPECULAR", "CORNERS"]
+__all__ = ["add_centreline", "add_cables", "add_stripe", "draw_label", "CABLE_RGBA", "CABLE_COLOURS", "STRIPE_RGBA",
+           "CABLE_SPECULAR", "CORNERS"]
 
-CABLE_RGBA = (0.85, 0.25, 0.12, 1.0)  # mjcable/mjcf/world.py's "cable" material
+CABLE_RGBA = CABLE_COLOURS[0]  # mjcable/mjcf/world.py's "cable" material
 CABLE_SPECULAR = 0.3
 STRIPE_RGBA = (0.95, 0.9, 0.2, 1.0)  # the twist stripe (add_stripe): yellow on the red-brown cable
 STRIPE_WIDTH = 0.35  # the stripe's radius as a fraction of the cable's drawn radius
@@ -68,6 +70,18 @@ def add_centreline(scn: mujoco.MjvScene, points, radius: float, rgba=CABLE_RGBA,
     colour = _colour(rgba)
     specular = _validate.number("specular", specular, low=0.0, high=1.0)
     return _add_capsules(scn, points[:-1], points[1:], radius, colour, specular)
+
+
+def add_cables(scn: mujoco.MjvScene, scene, positions, radius: float, *, frames=None) -> None:
+    """Append every cable of ``scene`` to ``scn``: :func:`add_centreline` of its slice of ``positions``
+    (``(scene.n_particles, 3)`` m, ``Simulator.positions``) in its colour (:data:`CABLE_COLOURS`), at least
+    ``radius`` m thick (its own radius where that is larger), and with ``frames`` (``(Σ nᵢ, 4)``,
+    ``Simulator.frames``) its twist stripe (:func:`add_stripe`)."""
+    for c, (cable, s) in enumerate(zip(scene.cables, scene.cable_slices)):
+        drawn = max(cable.radius, radius)
+        add_centreline(scn, positions[s], drawn, CABLE_COLOURS[c % len(CABLE_COLOURS)])
+        if frames is not None:  # cable c's segments: its particles' slice less one per cable before it
+            add_stripe(scn, positions[s], frames[s.start - c:s.stop - 1 - c], drawn)
 
 
 def _colour(rgba) -> np.ndarray:

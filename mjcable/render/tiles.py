@@ -24,7 +24,7 @@ from mjcable import catalog
 from mjcable.errors import SimulationDivergedError
 from mjcable.render import camera as cameras
 from mjcable.render.options import Options
-from mjcable.render.overlays import add_centreline, add_stripe, draw_label
+from mjcable.render.overlays import add_cables, draw_label
 from mjcable.scene import Scene
 from mjcable.simulator import Simulator
 
@@ -61,7 +61,7 @@ class Tile:
                 f"Python imports mujoco; MUJOCO_GL is now {os.environ.get('MUJOCO_GL')!r}") from exc
         self.diverged: Optional[SimulationDivergedError] = None
         self.last: Optional[np.ndarray] = None
-        self.radius = sim.scene.cable.radius
+        self.radius = max(c.radius for c in sim.scene.cables)
         self.has_frames = catalog.get(sim.model).frames
 
     @property
@@ -99,10 +99,8 @@ class Tile:
         r.update_scene(self.sim.mj_data, camera=camera, scene_option=cameras.scene_option())
         r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0  # CPU rendering: shadows and reflections cost 5-10x
         r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
-        drawn = max(self.radius, self.opts.min_cable_px * pixel_size)
-        add_centreline(r.scene, self.sim.positions, drawn)
-        if self.opts.stripe and self.has_frames:
-            add_stripe(r.scene, self.sim.positions, self.sim.frames, drawn)
+        add_cables(r.scene, self.sim.scene, self.sim.positions, self.opts.min_cable_px * pixel_size,
+                   frames=self.sim.frames if self.opts.stripe and self.has_frames else None)
         self.last = r.render().copy()
         image = self.last.copy()
         draw_label(image, self.label, corner="left")
@@ -134,7 +132,7 @@ class TileStream:
             raise
         if self._cam_id < 0:
             self._fovy = float(m.vis.global_.fovy)
-            length = max(t.sim.scene.cable.length for t in tiles)
+            length = max(c.length for t in tiles for c in t.sim.scene.cables)
             self.tracker = cameras.Tracker(fps=opts.fps, width=opts.width, height=opts.height, fovy_deg=self._fovy,
                                            elevation_deg=opts.elevation,
                                            min_half_extent=cameras.MIN_TRACK_HALF_EXTENT * length)
