@@ -61,7 +61,8 @@ class Harness:
         a discrete reference, ``(LEG_SAMPLES, 3)`` points at equal arc length on a continuous one.
       pin_forces: ``(k, 3)`` the force in newtons each pin exerts on the cable; they sum to the harness' weight,
         pointing up (−g⃗ Σ m_i).
-      tensions: ``(k,)`` each leg's tension in newtons at J (its first link's, for a discrete reference).
+      tensions: ``(k,)`` each leg's tension in newtons at J (its first link's, for a discrete reference; negative
+        where that link pushes).
       n_segments: the legs' segment counts (discrete reference), or ``None`` (continuous reference).
     """
 
