@@ -32,6 +32,9 @@ ONE_CABLE = [m for m in catalog.names() if not catalog.get(m).several_cables]
 # (README "Several cables"), not as a model list; a model added to the catalogue is tested like every other.
 _REST_LIMITATION = {"springs": "springs' cables are spheres at the particles: A's spheres settle into the gaps between "
                                "B's (tests/test_native_cables.py, docs/measurements.md)"}
+_DRAG_LIMITATION = {"springs": "springs' cables are spheres at the particles: A's spheres sit in the gaps between "
+                               "B's, so lifting or carrying A drags B along (13.9 mm on the straight lift, "
+                               "docs/measurements.md)"}
 SETTLE_STEPS = 50  # control steps (1 s) holding still: A settles onto B and the table
 REST_TOLERANCE = 1e-3  # m: A's centreline rests this close to the sum of the radii from B's
 STILL = 0.01  # m: B stays put within this when A is lifted off it
@@ -127,7 +130,7 @@ def test_a_rests_on_b_at_the_start(model):
     assert a[-1, 2] < untangle.TABLE_TOP + 2 * untangle.RADIUS  # the free end is down on the table
 
 
-@pytest.mark.parametrize("model", _params(SEVERAL))
+@pytest.mark.parametrize("model", _params(SEVERAL, _DRAG_LIMITATION))
 def test_b_stays_put_when_a_is_lifted_straight_up(model):
     env = envs.load("untangle", model, random=0)
     _hold(env, SETTLE_STEPS // 2)
@@ -142,7 +145,7 @@ def test_b_stays_put_when_a_is_lifted_straight_up(model):
     assert physics.b_displacement() < STILL
 
 
-@pytest.mark.parametrize("model", _params(SEVERAL))
+@pytest.mark.parametrize("model", _params(SEVERAL, _DRAG_LIMITATION))
 def test_a_scripted_carry_into_the_zone_earns_the_reward(model):
     """Lift A off B, carry it over the zone and lay it down along the zone while moving away from B."""
     env = envs.load("untangle", model, random=0, time_limit=20.0)

@@ -10,7 +10,7 @@ import pytest
 
 import mjcable
 from mjcable.mjcf import proxy
-from mjcable.solvers import UserConstraint, kernels, query_kernels
+from mjcable.solvers import UserConstraint, cable_contact_kernels, kernels
 
 G = 9.81
 PARTICLE = ("jakobsen", "pbd", "xpbd")
@@ -214,7 +214,8 @@ def test_self_collision_keeps_segments_apart():
         sim.step(1.0)
         x = sim.positions
         pair, st, normal = np.zeros((4000, 2), dtype=np.int64), np.zeros((4000, 2)), np.zeros((4000, 3))
-        count = query_kernels.find_self_contacts(x, 0.05, 2, pair, st, normal)
+        one_chain = (np.array([[0, len(x) - 1]]), True, np.zeros((0, 2), dtype=np.int64))  # chains, own, junctions
+        count = cable_contact_kernels.find_self_contacts(x, 0.05, 2, pair, st, normal, *one_chain)
         a = (1 - st[:count, :1]) * x[pair[:count, 0]] + st[:count, :1] * x[pair[:count, 0] + 1]
         b = (1 - st[:count, 1:2]) * x[pair[:count, 1]] + st[:count, 1:2] * x[pair[:count, 1] + 1]
         gaps[on] = np.min(np.linalg.norm(a - b, axis=1))

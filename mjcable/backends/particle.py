@@ -42,7 +42,7 @@ _RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "relax", "prev", "par", "r
           "pin_release", "pin_force", "pin_sum", "pin_count", "band", "grad", "rhs", "fric_n", "fric_mu",
           "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob", "q", "q0",
           "omega", "lam_ss", "lam_bt", "lam_end", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react",
-          "clamp_wq")
+          "clamp_wq", "lam_j", "junction_sum")
 _NO_PATH = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
 
 
@@ -75,7 +75,7 @@ class ParticleBackend:
         self.scene, self.name, self.dt = scene, entry.name, dt
         self.h = dt / s.substeps
         self.rules = entry.rules(scene, s, self.h)
-        n_particles = scene.cable.n_particles
+        n_particles = scene.n_particles
         self._user = [(c, c.resolved(n_particles)) for c in getattr(s, "constraints", ())]
         a = self.arrays = chain_arrays(scene, self.rules, s, dt)
         add_pin_rows(a, scene)  # an inactive pin row per free gripper
@@ -89,10 +89,11 @@ class ParticleBackend:
         self.mj_model = entry.build(scene, s, dt).compile()
         self.mj_data = mujoco.MjData(self.mj_model)
         m, d = self.mj_model, self.mj_data
-        n = scene.cable.n_segments
+        n = n_particles - 1
         bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, proxy.segment_name(i)) for i in range(n)]
         if not np.array_equal(m.body_mocapid[bodies], np.arange(n)):  # pragma: no cover - proxy.build adds them first
             raise RuntimeError("proxy segments must be the first mocap bodies")
+        # each segment's capsule (−1: a gap between two cables has none)
         segment_geoms = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, proxy.segment_name(i))
                                   for i in range(n)])
         sites = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.particle_site(i))
@@ -397,6 +398,12 @@ class ParticleBackend:
     def gripper_forces(self) -> np.ndarray:
         """``(n_free, 3)`` N: each free gripper's force on its particle, as :meth:`pin_forces` (0 while open)."""
         return self._grasps.forces(self._pin_rows())
+    def junction_forces(self) -> np.ndarray:
+        """``(J, 3)`` N each junction's force on its particle b (equal and opposite on a), averaged over the last
+        step's substeps as :meth:`pin_forces` (:mod:`mjcable.solvers.junction_kernels`); zero before the first
+        step."""
+        count = int(self._par["junction_count"])
+        return self.arrays.junction_sum / count if count else np.zeros_like(self.arrays.junction_sum)
 
     def pin_torques(self) -> np.ndarray:
         """A clamp's torque about its particle p: (x_q − x_p) × f_q, f_q = Σₘ ∇_q Cₘ λₘ / h² the clamp's force on
@@ -406,7 +413,7 @@ class ParticleBackend:
         frame, −Σ R ∇_b Cᵀ λ / h² (:mod:`mjcable.solvers.cosserat_kernels`), axial torque included."""
         a = self.arrays
         out = np.zeros((len(self.scene.pins), 3))
-        scale = 2.0 / self.scene.cable.segment_length**2
+        scale = 2.0 * float(self._par["inv_l0sq"])
         for kc, (p, q) in enumerate(a.clamp_pq):
             k = int(a.clamp_pin[kc])
             if not a.pin_active[k]:

@@ -28,10 +28,10 @@ LENGTH_A = 0.4  # m, the cable to move (index 0)
 LENGTH_B = 0.5  # m, the cable to leave in place (index 1)
 RADIUS = 0.005  # m, both cables
 SEGMENTS_A, SEGMENTS_B = 20, 25  # 20 mm segments
-MASS_A, MASS_B = 0.04, 0.15  # kg: B a heavier cable (0.3 kg/m) than A (0.1 kg/m)
+MASS_A, MASS_B = 0.12, 0.15  # kg: two cables of one kind, 0.3 kg/m (a light, limp B was dragged along by A)
 FRICTION = 0.3  # Coulomb μ of the cables (and of the table, which sets none of its own)
-YOUNG_A, YOUNG_B = 0.0, 1e6  # Pa: A a limp rope, B a cable that bends (E·I = 4.9e-4 N·m²)
-DAMPING_A, DAMPING_B = 3.0, 1.0  # 1/s: one drag per length (A: a third of B's mass per segment), as MuJoCo's one viscosity gives
+YOUNG_A = YOUNG_B = 1e6  # Pa: cables that bend (E·I = 4.9e-4 N·m²)
+DAMPING_A = DAMPING_B = 1.0  # 1/s
 B_X = (0.05, 0.15)  # m, B's x (uniform); A's middle crosses it
 A_Y = (-0.1, 0.1)  # m, A's y (uniform); B's middle is at y = 0
 ZONE_Y = (-0.1, 0.1)  # m, the zone's centre y (uniform)

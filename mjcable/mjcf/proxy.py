@@ -4,7 +4,9 @@ The particle solvers (``jakobsen``, ``pbd``, ``xpbd``) integrate the cable thems
 proxy. Each segment is a mocap body ``segment{i}`` holding a capsule geom ``segment{i}`` (radius: the cable's,
 half-length l₀/2) and the site ``particle{i}`` at its start (the last segment also holds ``particle{n}``); the
 solver writes the capsules' poses from its particles every step, and ``mj_kinematics`` + ``mj_collision`` give
-the contacts with the obstacles.
+the contacts with the obstacles. Several cables' particles are numbered in cable order, as the solvers' state
+holds them: the segment from one cable's last particle to the next one's first is a gap, a body without a capsule
+(it holds that particle's site).
 
 Mocap bodies get no contacts with static geoms (MuJoCo skips pairs of bodies that cannot move), so every capsule
 is paired with every obstacle geom (``obstacle{i}``) by an explicit ``<pair>``. The alternative, one free-joint
@@ -56,21 +58,26 @@ def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, pr
         raise ValueError(f"proxy must be one of {PROXY_KINDS}, got {proxy!r}")
 
     spec = world.new_spec(scene, timestep=dt)
-    cable = scene.cable
-    p = cable.particles
-    half = 0.5 * cable.segment_length
+    p = scene.particles
     geom = world.cable_geom(scene)
-    n = cable.n_segments
+    n = len(p) - 1
+    capsules = []  # (segment, cable) of the real segments: the gaps between cables get a body but no capsule
+    for cable, part in zip(scene.cables, scene.cable_slices):
+        capsules += [(i, cable) for i in range(part.start, part.stop - 1)]
+    shape = dict(capsules)
     for i in range(n):
         d = p[i + 1] - p[i]
         name = segment_name(i)
         body = spec.worldbody.add_body(name=name, pos=0.5 * (p[i] + p[i + 1]), quat=_z_to(d), mocap=proxy == "pairs")
-        if proxy == "free":
+        if proxy == "free" and i in shape:
             body.add_freejoint()
-        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[cable.radius, half, 0.0],
-                      margin=contact_margin, **geom)
-        if scene.world is not None:  # only our pairs: the host's mj_step must never see a capsule
-            body.geoms[-1].contype = body.geoms[-1].conaffinity = 0
+        half = 0.5 * float(np.linalg.norm(d))
+        if i in shape:
+            half = 0.5 * shape[i].segment_length
+            body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[shape[i].radius, half, 0.0],
+                          margin=contact_margin, **geom)
+            if scene.world is not None:  # only our pairs: the host's mj_step must never see a capsule
+                body.geoms[-1].contype = body.geoms[-1].conaffinity = 0
         body.add_site(name=world.particle_site(i), pos=[0.0, 0.0, -half])
         if i == n - 1:
             body.add_site(name=world.particle_site(n), pos=[0.0, 0.0, half])
@@ -78,7 +85,7 @@ def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, pr
         others = user_collision_geoms(spec, scene) + [(f"obstacle{k}", "") for k in range(len(scene.obstacles))]
         for other, body in others:
             near = world.pinned_segments(scene, body)
-            for i in range(n):
+            for i, _ in capsules:
                 if i not in near:
                     spec.add_pair(geomname1=other, geomname2=segment_name(i), condim=3, margin=contact_margin)
     for k, pin in enumerate(scene.pins):

@@ -357,7 +357,8 @@ def add_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position=None) -> str:
         spec.body(pin.body).add_site(name=name, pos=pin.offset)
     elif pin.kind == "gripper":
         body = spec.worldbody.add_body(name=gripper_body(k), pos=pos, mocap=True)
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[2.5 * scene.cables[scene.pin_cable(k)].radius, 0, 0], contype=0,
+        radius = scene.cables[scene.pin_cable(k)].radius
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[2.5 * radius, 0, 0], contype=0,
                       conaffinity=0, density=0.0, material="gripper", group=1)  # visual only: no mass, no contacts
         body.add_site(name=name)
     else:

@@ -86,20 +86,22 @@ def jacobi_relax(S):
     their mass, a hanging chain's pins reporting 1.95 times its weight.)"""
     relax = S.relax
     relax[:] = 0.0
-    n = S.rest.shape[0]
-    for i in range(n):
-        relax[i] += 1.0
-        relax[i + 1] += 1.0
     bending = S.par[0].bending
-    if bending == BEND_CURVATURE:
-        for b in range(n - 1):
-            relax[b] += 1.0
-            relax[b + 1] += 1.0
-            relax[b + 2] += 1.0
-    elif bending == BEND_DISTANCE:
-        for b in range(n - 1):
-            relax[b] += 1.0
-            relax[b + 2] += 1.0
+    chains = S.chain_seg
+    for chain in range(chains.shape[0]):  # each cable's segments [first, stop); the gaps between cables have none
+        first, stop = chains[chain, 0], chains[chain, 1]
+        for i in range(first, stop):
+            relax[i] += 1.0
+            relax[i + 1] += 1.0
+        if bending == BEND_CURVATURE:
+            for b in range(first, stop - 1):
+                relax[b] += 1.0
+                relax[b + 1] += 1.0
+                relax[b + 2] += 1.0
+        elif bending == BEND_DISTANCE:
+            for b in range(first, stop - 1):
+                relax[b] += 1.0
+                relax[b + 2] += 1.0
     for kc in range(S.clamp_pq.shape[0]):
         if S.pin_active[S.clamp_pin[kc]]:
             relax[S.clamp_pq[kc, 0]] += 1.0
@@ -119,57 +121,68 @@ def share(relax, i, j, k):
 
 
 @_inline
-def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx, relax):
-    """Stretch constraints c = 0..len(rest)−1 between particles c and c + ``gap`` (gap 1: the segments; gap 2: the
-    thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23). α̃ = 0 and k = 1 take
-    :func:`stretch_step_rigid`; ``relax`` non-empty: Jacobi's share of each (:func:`share`)."""
+def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx, relax, chains):
+    """Stretch constraints c between particles c and c + ``gap`` within each chain (gap 1: the segments; gap 2: the
+    thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23): ``chains`` (C, 2) holds
+    each cable's segments [first, stop), so c runs from first to stop − gap (the gap segments between cables have
+    none). α̃ = 0 and k = 1 take :func:`stretch_step_rigid`; ``relax`` non-empty: Jacobi's share of each
+    (:func:`share`)."""
     rigid = alpha_tilde == 0.0 and k == 1.0
     jacobi = relax.shape[0] > 0
-    for c in range(rest.shape[0]):
-        i = c
-        j = c + gap
-        dx = x[i, 0] - x[j, 0]
-        dy = x[i, 1] - x[j, 1]
-        dz = x[i, 2] - x[j, 2]
-        wi = w[i]
-        wj = w[j]
-        if sqrt_approx:
-            sigma, dlam = stretch_step_sqrt(dx, dy, dz, wi + wj, rest[c], k)
-        elif rigid:
-            sigma, dlam = stretch_step_rigid(dx, dy, dz, wi + wj, rest[c])
-        else:
-            sigma, dlam = stretch_step(dx, dy, dz, wi + wj, rest[c], alpha_tilde, lam[c], k)
-        if jacobi:
-            s = share(relax, i, j, j)
-            sigma *= s
-            dlam *= s
-        lam[c] += dlam
-        if wi > 0.0:
-            out[i, 0] += wi * sigma * dx
-            out[i, 1] += wi * sigma * dy
-            out[i, 2] += wi * sigma * dz
-        else:
-            react[i, 0] += sigma * dx
-            react[i, 1] += sigma * dy
-            react[i, 2] += sigma * dz
-        if wj > 0.0:
-            out[j, 0] -= wj * sigma * dx
-            out[j, 1] -= wj * sigma * dy
-            out[j, 2] -= wj * sigma * dz
-        else:
-            react[j, 0] -= sigma * dx
-            react[j, 1] -= sigma * dy
-            react[j, 2] -= sigma * dz
+    for chain in range(chains.shape[0]):
+        for c in range(chains[chain, 0], chains[chain, 1] + 1 - gap):
+            i = c
+            j = c + gap
+            dx = x[i, 0] - x[j, 0]
+            dy = x[i, 1] - x[j, 1]
+            dz = x[i, 2] - x[j, 2]
+            wi = w[i]
+            wj = w[j]
+            if sqrt_approx:
+                sigma, dlam = stretch_step_sqrt(dx, dy, dz, wi + wj, rest[c], k)
+            elif rigid:
+                sigma, dlam = stretch_step_rigid(dx, dy, dz, wi + wj, rest[c])
+            else:
+                sigma, dlam = stretch_step(dx, dy, dz, wi + wj, rest[c], alpha_tilde, lam[c], k)
+            if jacobi:
+                f = share(relax, i, j, j)
+                sigma *= f
+                dlam *= f
+            lam[c] += dlam
+            if wi > 0.0:
+                out[i, 0] += wi * sigma * dx
+                out[i, 1] += wi * sigma * dy
+                out[i, 2] += wi * sigma * dz
+            else:
+                react[i, 0] += sigma * dx
+                react[i, 1] += sigma * dy
+                react[i, 2] += sigma * dz
+            if wj > 0.0:
+                out[j, 0] -= wj * sigma * dx
+                out[j, 1] -= wj * sigma * dy
+                out[j, 2] -= wj * sigma * dz
+            else:
+                react[j, 0] -= sigma * dx
+                react[j, 1] -= sigma * dy
+                react[j, 2] -= sigma * dz
 
 
 @_jit
-def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k, relax):
-    """Curvature bending at every interior particle i = b + 1: the vector constraint
+def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k, relax, chains):
+    """Curvature bending at every interior particle i = b + 1 of each chain (``chains`` (C, 2): each cable's
+    segments [first, stop)): the vector constraint
     C = (x_{i−1} − 2xᵢ + x_{i+1}) / l₀², the discrete curvature of a rod that is straight at rest, with energy
     ½ E·I |C|² l₀, i.e. α = 1 / (E·I·l₀). C is linear in x: its gradient is (1, −2, 1)/l₀² times the identity, so
     the three components decouple and each is one [M16] Eq. 18 update (Jacobi: its :func:`share`)."""
     g2 = inv_l0sq * inv_l0sq
-    for b in range(lam.shape[0]):
+    for chain in range(chains.shape[0]):
+        _curvature_chain(x, out, w, react, inv_l0sq, g2, alpha_tilde, lam, k, relax, chains[chain])
+
+
+@_inline
+def _curvature_chain(x, out, w, react, inv_l0sq, g2, alpha_tilde, lam, k, relax, chain):
+    """:func:`curvature_sweep` over one chain's interior particles (its segments [first, stop) = ``chain``)."""
+    for b in range(chain[0], chain[1] - 1):
         i = b + 1
         wa = w[i - 1]
         wb = w[i]
@@ -302,8 +315,8 @@ def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c, jacobi):
     P = S.par[0]
     bending, inv_l0sq = P.bending, P.inv_l0sq
     if bending == BEND_CURVATURE:
-        curvature_sweep(x, out, w, react, inv_l0sq, at_b, S.lam_b, k_b, relax)
+        curvature_sweep(x, out, w, react, inv_l0sq, at_b, S.lam_b, k_b, relax, S.chain_seg)
     elif bending == BEND_DISTANCE:
-        stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False, relax)
+        stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False, relax, S.chain_seg)
     if S.clamp_pq.shape[0]:
         clamp_sweep(S, out, 2.0 * inv_l0sq, at_c, k_c, relax)

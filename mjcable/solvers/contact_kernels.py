@@ -58,8 +58,7 @@ slip left over by one substep's single iteration is pulled back in the next ones
 anchor every substep cannot undo), and the result does not depend on the substep count ([M19]: the same forces
 per unit time at any h).
 
-**Self contacts** between non-adjacent segments are projected the same way, with C = n·(pᵢ − pⱼ) − 2r, and get the
-same Coulomb friction on their relative tangential slip since the substep began, capped at μ λₙ per contact.
+**Self contacts** and contacts between cables: :mod:`mjcable.solvers.cable_contact_kernels`.
 
 References:
   [J01] T. Jakobsen, "Advanced Character Physics", GDC 2001 (in ``shared/seeds``).
@@ -76,12 +75,12 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, variable
-from mjcable.solvers.kernels_layout import (_TINY_LENGTH, _TINY_SLIP, BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_SOLE,
+from mjcable.solvers.kernels_layout import (_TINY_LENGTH, BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_SOLE,
                                             DEPENETRATION_SPEED, GEOM_BOX, GEOM_CAPSULE, GEOM_CYLINDER,
                                             GEOM_ELLIPSOID, GEOM_PLANE, GEOM_SPHERE, Shapes)
 
-__all__ = ["shape_distance", "shapes_of", "box_face", "contact_sweep", "friction_sweep", "self_contact_sweep",
-           "update_anchors", "reset_friction"]
+__all__ = ["shape_distance", "shapes_of", "box_face", "contact_sweep", "friction_sweep", "update_anchors",
+           "reset_friction"]
 
 
 @_inline
@@ -533,68 +532,3 @@ def _particle_sweep(S, friction, finish):
                 fric_impulse[p, c] = 0.0
                 fric_normal[p, c] = 0.0
     return math.sqrt(largest)
-
-
-@_inline
-def _move_pair(x, w, react, i, j, weights, g, v):
-    """Δxₚ = wₚ fₚ g v for the four particles of a segment pair, (i, i+1, j, j+1) with ``weights`` (a0, a1, b0, b1),
-    ``v`` a vector (3 floats); a held particle collects fₚ g v in ``react``."""
-    a0, a1, b0, b1 = weights
-    vx, vy, vz = v
-    for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
-        if w[p] > 0.0:
-            x[p, 0] += w[p] * f * g * vx
-            x[p, 1] += w[p] * f * g * vy
-            x[p, 2] += w[p] * f * g * vz
-        else:
-            react[p, 0] += f * g * vx
-            react[p, 1] += f * g * vy
-            react[p, 2] += f * g * vz
-
-
-@_jit
-def self_contact_sweep(S):
-    """The state's self contacts (``par.n_self`` of them) of non-adjacent segments (i, i+1) and (j, j+1)
-    (``self_pair``) at fractions s, t (``self_st``), normal n from segment j to segment i (``self_normal``; renewed
-    before each sweep: :mod:`~mjcable.solvers.self_contact_kernels`): C = n·(pᵢ − pⱼ) − 2r ≥ 0, the four moving with
-    Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb friction μ
-    (``par.mu_self``) on the relative tangential slip of the two axis points since the substep began ([M20]'s static
-    friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``, ``self_lam_t``."""
-    P = S.par[0]
-    gap, mu = 2.0 * P.radius, P.mu_self
-    x, x0, w, react = S.x, S.x0, S.w, S.react
-    pair, st, normal, lam_n, lam_t = S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t
-    for c in range(P.n_self):
-        i = pair[c, 0]
-        j = pair[c, 1]
-        s, t = st[c, 0], st[c, 1]
-        nx, ny, nz = normal[c, 0], normal[c, 1], normal[c, 2]
-        a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
-        weights = (a0, a1, b0, b1)
-        wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
-        if wsum == 0.0:
-            continue
-        cval = -gap
-        cval += nx * (a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0])
-        cval += ny * (a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1])
-        cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
-        if cval < 0.0:
-            dlam = -cval / wsum
-            lam_n[c] += dlam
-            _move_pair(x, w, react, i, j, weights, dlam, (nx, ny, nz))
-        if mu <= 0.0 or lam_n[c] <= 0.0:
-            continue
-        ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
-        for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
-            ux += f * (x[p, 0] - x0[p, 0])
-            uy += f * (x[p, 1] - x0[p, 1])
-            uz += f * (x[p, 2] - x0[p, 2])
-        un = ux * nx + uy * ny + uz * nz
-        tx, ty, tz = ux - un * nx, uy - un * ny, uz - un * nz
-        slip = math.sqrt(tx * tx + ty * ty + tz * tz)
-        budget = mu * lam_n[c] - lam_t[c]
-        if slip <= _TINY_SLIP or budget <= 0.0:
-            continue
-        dlam_t = min(slip / wsum, budget)
-        lam_t[c] += dlam_t
-        _move_pair(x, w, react, i, j, weights, -dlam_t / slip, (tx, ty, tz))

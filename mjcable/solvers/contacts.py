@@ -22,6 +22,7 @@ import numpy as np
 
 from mjcable.scene import Scene
 from mjcable.solvers import kernels_layout as layout, query_kernels
+from mjcable.solvers.state import shared_cable
 
 __all__ = ["ObstacleContacts"]
 
@@ -32,7 +33,7 @@ class ObstacleContacts:
     Args:
       scene: the scene.
       mj_model, mj_data: the compiled proxy (``mjcable.mjcf.proxy``) and its data, kinematics current.
-      segment_geoms: ``(n_segments,)`` geom ids of the proxy capsules.
+      segment_geoms: ``(n,)`` geom ids of the proxy capsules of the state's segments (−1: a gap between cables).
       pairs: the proxy's pairs (ids) of the cable with obstacles: all of them, but the user world's own pairs.
 
     Attributes:
@@ -44,20 +45,22 @@ class ObstacleContacts:
     def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, segment_geoms: np.ndarray,
                  pairs: slice = slice(None)):
         self.mj_model, self.mj_data = mj_model, mj_data
-        self.radius = scene.cable.radius
+        self.radius = shared_cable(scene, ("radius",)).radius
         self.pairs = pairs
         #: the geoms the cable is paired with: the scene's obstacles and, in a user world, its collidable geoms
         self.obstacle_geoms = np.unique(mj_model.pair_geom1[pairs]).astype(np.int64)
         self.segment_of_geom = np.full(mj_model.ngeom, -1, dtype=np.int64)
-        self.segment_of_geom[segment_geoms] = np.arange(len(segment_geoms))
+        real = segment_geoms >= 0  # (a gap between two cables has no capsule)
+        self.segment_of_geom[segment_geoms[real]] = np.flatnonzero(real)
         self.shape_of_geom = np.full(mj_model.ngeom, -1, dtype=np.int64)
         self.shape_of_geom[self.obstacle_geoms] = np.arange(len(self.obstacle_geoms))
         g = self.obstacle_geoms
         # Coulomb's μ of a cable contact: MuJoCo's rule, the higher priority geom's μ (the scene's obstacles have
         # priority 1), the larger of the two for equal priorities
-        mu_cable = scene.cable.friction
-        self.friction = np.array(mj_model.geom_friction)
         ours = mj_model.geom_priority[g] > 0
+        # (a user world's geoms take the cable's μ: one for all cables)
+        mu_cable = shared_cable(scene, ("friction",)).friction if not np.all(ours) else 0.0
+        self.friction = np.array(mj_model.geom_friction)
         self.friction[g, 0] = np.where(ours, mj_model.geom_friction[g, 0],
                                        np.maximum(mj_model.geom_friction[g, 0], mu_cable))
         body = mj_model.geom_bodyid[g]

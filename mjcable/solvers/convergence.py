@@ -378,13 +378,14 @@ def strain_within(expected: Optional[float]) -> bool:
 def resolve_iterations(scene: Scene, entry, settings, dt: float):
     """``settings`` with ``iterations=None`` (a particle solver's default) replaced by the number the Simulator
     takes: the fewest, up to :data:`mjcable.solvers.settings.MAX_AUTO_ITERATIONS`, whose expected static strain of
-    the cable under the scene's loads is within :data:`STRAIN_WARNING` (where none is, the most;
+    each cable under its loads (:meth:`~mjcable.scene.Scene.cable_scene`: what junctions add left out) is within
+    :data:`STRAIN_WARNING` (where none is, the most;
     :func:`mjcable.prechecks.check` then warns with the fixes). Other settings are returned as they are."""
     if entry.family != "particle" or settings.iterations is not None:
         return settings
-    strain = strain_estimate(scene, entry, dt)
+    strains = [strain_estimate(scene.cable_scene(c), entry, dt) for c in range(len(scene.cables))]
     for k in range(1, MAX_AUTO_ITERATIONS + 1):
         trial = dataclasses.replace(settings, iterations=k)
-        if strain_within(strain(trial)):
+        if all(strain_within(strain(trial)) for strain in strains):
             return trial
     return trial

@@ -16,8 +16,8 @@ Every row (a scalar constraint C, or one component of the curvature vector) is p
   over shared particles make a Gauss-Seidel chain softer than its lone rows (the accuracy-stiffness effect): the
   potential is the rows', not what the unconverged sweep achieves.
 
-Rows: stretch C = |xᵢ₊₁ − xᵢ| − l (W = wᵢ + wᵢ₊₁); curvature C = (xᵢ₋₁ − 2xᵢ + xᵢ₊₁) / l₀², per component
-(W = (wᵢ₋₁ + 4wᵢ + wᵢ₊₁) / l₀⁴); distance bending C = |xᵢ₊₂ − xᵢ| − 2 l₀ (W = wᵢ + wᵢ₊₂); an active clamp's two
+Rows (of every cable; the gaps between cables have none): stretch C = |xᵢ₊₁ − xᵢ| − l (W = wᵢ + wᵢ₊₁); curvature
+C = (xᵢ₋₁ − 2xᵢ + xᵢ₊₁) / l₀², per component (W = (wᵢ₋₁ + 4wᵢ + wᵢ₊₁) / l₀⁴); distance bending C = |xᵢ₊₂ − xᵢ| − 2 l₀ (W = wᵢ + wᵢ₊₂); an active clamp's two
 rows C = (2 / l₀²) d·(x_q − x_p) (W = 4 (w_p + w_q) / l₀⁴), counted as bending. Contacts, pins and PBD's user
 constraints are hard and store none.
 
@@ -59,18 +59,20 @@ def elastic_energy(a) -> tuple:
     x, w = a["x"], a["w"]
     P = a["par"][0]
     h, n_it, inv_l0sq = float(P["h"]), int(P["iterations"]), float(P["inv_l0sq"])
+    link = a["seg_cable"] >= 0  # the segments of the cables (not the gaps between them)
+    triplet = link[:-1] & link[1:]
     seg = np.linalg.norm(np.diff(x, axis=0), axis=1)
-    stretch = _potential((seg - a["rest"]) ** 2,
-                         row_compliance(float(P["alpha_s"]), float(P["k_s"]), n_it, h, w[:-1] + w[1:]))
+    stretch = _potential(((seg - a["rest"]) ** 2)[link],
+                         row_compliance(float(P["alpha_s"]), float(P["k_s"]), n_it, h, (w[:-1] + w[1:])[link]))
     alpha_b, k_b = float(P["alpha_b"]), float(P["k_b"])
     bending = 0.0
     if P["bending"] == layout.BEND_CURVATURE and len(x) > 2:
-        c = (x[:-2] - 2.0 * x[1:-1] + x[2:]) * inv_l0sq
-        wsum = (w[:-2] + 4.0 * w[1:-1] + w[2:]) * inv_l0sq**2
+        c = ((x[:-2] - 2.0 * x[1:-1] + x[2:]) * inv_l0sq)[triplet]
+        wsum = ((w[:-2] + 4.0 * w[1:-1] + w[2:]) * inv_l0sq**2)[triplet]
         bending += _potential(np.einsum("ij,ij->i", c, c), row_compliance(alpha_b, k_b, n_it, h, wsum))
     elif P["bending"] == layout.BEND_DISTANCE and len(x) > 2:
-        c = np.linalg.norm(x[2:] - x[:-2], axis=1) - a["rest_d"]
-        bending += _potential(c * c, row_compliance(alpha_b, k_b, n_it, h, w[:-2] + w[2:]))
+        c = (np.linalg.norm(x[2:] - x[:-2], axis=1) - a["rest_d"])[triplet]
+        bending += _potential(c * c, row_compliance(alpha_b, k_b, n_it, h, (w[:-2] + w[2:])[triplet]))
     active = a["pin_active"][a["clamp_pin"]]
     if np.any(active):
         p, q = a["clamp_pq"][active, 0], a["clamp_pq"][active, 1]

@@ -38,9 +38,10 @@ import math
 import numpy as np
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, variable
+from mjcable.solvers.cable_contact_kernels import self_contact_sweep
 from mjcable.solvers.constraint_kernels import _bend_clamp_sweeps
 from mjcable.solvers.contact_kernels import contact_sweep, friction_sweep
-from mjcable.solvers.self_contact_kernels import sweep_self_contacts
+from mjcable.solvers.junction_kernels import junction_sweep
 from mjcable.solvers.kernels_layout import _TINY_LENGTH, BEND_NONE
 
 __all__ = ["struck", "held_chain_solve", "resolve_impact"]
@@ -80,7 +81,7 @@ def held_chain_solve(S, scratch):
         ex, ey, ez = x0[i + 1, 0] - x0[i, 0], x0[i + 1, 1] - x0[i, 1], x0[i + 1, 2] - x0[i, 2]
         held = math.sqrt(ex * ex + ey * ey + ez * ez)
         diag = w[i] + w[i + 1]
-        if length < _TINY_LENGTH or diag == 0.0:
+        if length < _TINY_LENGTH or diag == 0.0 or S.seg_cable[i] < 0:  # (a gap between cables: no row)
             scratch[i, 0] = scratch[i, 1] = scratch[i, 2] = 0.0
             scratch[i, 3], scratch[i, 5] = 1.0, 0.0
         else:
@@ -129,9 +130,11 @@ def resolve_impact(S):
         held_chain_solve(S, scratch)
         if bend_or_clamp:
             _bend_clamp_sweeps(S, S.x, at_b, at_c, P.k_b, P.k_c, False)
+        if S.junction_p.shape[0]:
+            junction_sweep(S)
         moved = max(contact_sweep(S), friction_sweep(S, variable(False)))
         if P.n_self:
-            sweep_self_contacts(S)
+            self_contact_sweep(S)
         if moved <= P.impact_tol:
             break
     return taken

@@ -48,14 +48,13 @@ from mjcable.solvers.constraint_kernels import (
     _bend_clamp_sweeps, clamp_sweep, curvature_sweep, jacobi_relax,  # noqa: F401
     stretch_step, stretch_step_rigid, stretch_step_sqrt, stretch_sweep, xpbd_multiplier,  # noqa: F401
 )
-from mjcable.solvers.contact_kernels import (
-    contact_sweep, friction_sweep, self_contact_sweep, shape_distance,  # noqa: F401
-    update_anchors,  # noqa: F401
-)
+from mjcable.solvers.cable_contact_kernels import self_contact_sweep, self_contacts
+from mjcable.solvers.contact_kernels import contact_sweep, friction_sweep, shape_distance, update_anchors  # noqa: F401
 from mjcable.solvers.cosserat_step_kernels import frames_begin, frames_end, rod_iterate
 from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # noqa: F401
 from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.impulse_kernels import collect_impulses
+from mjcable.solvers.junction_kernels import junction_begin, junction_forces, junction_sweep
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
     BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
@@ -63,8 +62,8 @@ from mjcable.solvers.kernels_layout import (
     RUN_DIVERGED, RUN_DONE, RUN_QUERY, RUN_RELEASED, RUN_WARNING, CHECK_OK, WARN_STRAIN, SolverState,  # noqa: F401
 )
 from mjcable.solvers.monitor_kernels import contact_depth, step_check
-from mjcable.solvers.query_kernels import flatten_contacts, query_holds, query_obstacles, self_contacts
-from mjcable.solvers.self_contact_kernels import sweep_self_contacts
+from mjcable.solvers.query_kernels import (flatten_contacts, query_holds, query_obstacles, step_margin,  # noqa: F401
+                                           touches_obstacles)
 
 __all__ = ["SolverState", "run_steps", "run_phase", "substep", "begin_substep", "iterate", "end_substep",
            "is_plain", "plain_substep", "step_margin", "touches_obstacles", "xpbd_multiplier", "stretch_step",
@@ -160,6 +159,8 @@ def begin_substep(S, sub, n_sub):
     P.substep_depth = 0.0
     S.self_lam_n[:P.n_self] = 0.0
     S.self_lam_t[:P.n_self] = 0.0
+    if S.junction_p.shape[0]:
+        junction_begin(S)
 
 
 @_inline
@@ -168,7 +169,8 @@ def iterate(S, last):
     hold exactly when the iteration ends. ``last``: the substep's last iteration: a struck contact then gets the
     impact's iterations (:func:`_struck`, after this iteration's friction), and otherwise the friction sweep also
     ends the particles' substep (:func:`~mjcable.solvers.contact_kernels.update_anchors`) unless two-way contacts
-    read the sums after it. Returns whether it did."""
+    read the sums after it. Junctions follow the chains (:mod:`~mjcable.solvers.junction_kernels`). Returns whether it
+    did."""
     P = S.par[0]
     h2 = P.h * P.h
     at_s, at_b, at_c = P.alpha_s / h2, P.alpha_b / h2, P.alpha_c / h2
@@ -186,7 +188,7 @@ def iterate(S, last):
         dx = S.dx
         dx[:] = 0.0
         jacobi_relax(S)
-        stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax)
+        stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax, S.chain_seg)
         if bend_or_clamp:
             _bend_clamp_sweeps(S, dx, at_b, at_c, k_b, k_c, True)
         for p in range(x.shape[0]):
@@ -195,9 +197,11 @@ def iterate(S, last):
                 x[p, 1] += dx[p, 1]
                 x[p, 2] += dx[p, 2]
     else:
-        stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax[:0])
+        stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax[:0], S.chain_seg)
         if bend_or_clamp:  # a call passing S: skipped when there is nothing to do
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
+    if S.junction_p.shape[0]:  # the junctions after the chains (junction_kernels)
+        junction_sweep(S)
     n_con, n_self = P.n_con, P.n_self
     impact = finished = False
     if n_con:
@@ -208,7 +212,7 @@ def iterate(S, last):
         finished = last and not impact and S.impulse_force.shape[0] == 0
         friction_sweep(S, finished)
     if n_self:
-        sweep_self_contacts(S)
+        self_contact_sweep(S)
     if impact:
         resolve_impact(S)
     return finished
@@ -229,6 +233,8 @@ def end_substep(S, finished):
     _velocities(x, S.v, S.x0, 1.0 / P.h)
     if S.q.shape[0]:
         frames_end(S)
+    if S.junction_p.shape[0]:
+        junction_forces(S)
     return _pin_forces(S)
 
 
@@ -284,10 +290,11 @@ def _pin_forces(S):
 @_inline
 def is_plain(S):
     """Whether a substep is :func:`plain_substep`'s: Gauss-Seidel order, no bending, no clamps, no obstacle shapes,
-    no contacts and no frames."""
+    no contacts, no frames and no junctions."""
     P = S.par[0]
     return (P.order == ORDER_GAUSS_SEIDEL and P.bending == BEND_NONE and S.clamp_pq.shape[0] == 0
-            and S.shape_type.shape[0] == 0 and P.n_con == 0 and P.n_self == 0 and S.q.shape[0] == 0)
+            and S.shape_type.shape[0] == 0 and P.n_con == 0 and P.n_self == 0 and S.q.shape[0] == 0
+            and S.junction_p.shape[0] == 0)
 
 
 @_inline
@@ -304,9 +311,9 @@ def plain_substep(S, sub, n_sub):
     _move_pins(S, sub, n_sub)
     lam_s[:] = 0.0
     at_s, k_s, sqrt_approx = P.alpha_s / (h * h), P.k_s, P.sqrt_approx
-    rest = S.rest
+    rest, chains = S.rest, S.chain_seg
     for _ in range(P.iterations):
-        stretch_sweep(x, x, w, react, rest, 1, at_s, lam_s, k_s, sqrt_approx, S.relax[:0])
+        stretch_sweep(x, x, w, react, rest, 1, at_s, lam_s, k_s, sqrt_approx, S.relax[:0], chains)
     _velocities(x, S.v, S.x0, 1.0 / h)
     return _pin_forces(S)
 
@@ -368,57 +375,21 @@ def _substeps(S):
 
 
 @_inline
-def step_margin(v, contact_margin, dt, fall):
-    """The contact query's margin (m) for the next step: ``contact_margin`` plus the fastest particle's travel in
-    one step, speed · dt + ``fall`` (½ g dt²), from ``v`` (N, 3); ``contact_margin`` alone for a non-finite state."""
-    top = 0.0
-    for p in range(v.shape[0]):
-        s2 = v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1] + v[p, 2] * v[p, 2]
-        if s2 > top or s2 != s2:
-            top = s2
-    margin = contact_margin + math.sqrt(top) * dt + fall
-    return margin if math.isfinite(margin) else contact_margin
-
-
-@_jit
-def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
-    """Whether the bounding box of particles ``x`` (N, 3), grown by ``reach`` metres, touches an obstacle: a world
-    bounding box (``box_lo``, ``box_hi`` (B, 3)) or the solid side of a plane (unit normal ``plane_n``, point
-    ``plane_p`` (F, 3))."""
-    lo0 = lo1 = lo2 = math.inf
-    hi0 = hi1 = hi2 = -math.inf
-    for p in range(x.shape[0]):
-        lo0, lo1, lo2 = min(lo0, x[p, 0]), min(lo1, x[p, 1]), min(lo2, x[p, 2])
-        hi0, hi1, hi2 = max(hi0, x[p, 0]), max(hi1, x[p, 1]), max(hi2, x[p, 2])
-    lo, hi = (lo0 - reach, lo1 - reach, lo2 - reach), (hi0 + reach, hi1 + reach, hi2 + reach)
-    for k in range(box_lo.shape[0]):
-        if (lo[0] <= box_hi[k, 0] and hi[0] >= box_lo[k, 0] and lo[1] <= box_hi[k, 1] and hi[1] >= box_lo[k, 1]
-                and lo[2] <= box_hi[k, 2] and hi[2] >= box_lo[k, 2]):
-            return True
-    for k in range(plane_n.shape[0]):
-        depth = 0.0
-        for comp in range(3):
-            depth += plane_n[k, comp] * (0.5 * (lo[comp] + hi[comp]) - plane_p[k, comp])
-            depth -= abs(plane_n[k, comp]) * 0.5 * (hi[comp] - lo[comp])
-        if depth <= 0.0:
-            return True
-    return False
-
-
-@_inline
 def _step_contacts(S, given):
     """The contacts of the next step into the state (``par.n_con``, ``par.n_self``): none while the cable's reach
-    (:func:`step_margin` + radius) touches no obstacle's bounds; the last query's while they still hold every pair
-    the step needs (static obstacles: :func:`~mjcable.solvers.query_kernels.query_holds`); else MuJoCo's query
-    (:func:`~mjcable.solvers.query_kernels.query_obstacles`, its margin widened by ``par.query_slack`` so that later
-    steps may keep it); and the self contacts with ``par.self_collision``. ``given``: the obstacle contacts are
+    (:func:`~mjcable.solvers.query_kernels.step_margin` + radius) touches no obstacle's bounds; the last query's while
+    they still hold every pair the step needs (static obstacles: :func:`~mjcable.solvers.query_kernels.query_holds`);
+    else MuJoCo's query (:func:`~mjcable.solvers.query_kernels.query_obstacles`, its margin widened by
+    ``par.query_slack`` so that later steps may keep it); and the segment pairs: the self contacts with
+    ``par.self_collision``, those between cables with ``par.cable_contact``. ``given``: the obstacle contacts are
     already there (Python queried them at ``par.margin``). Returns False, with the margin in ``par.margin``, when
     Python must query this step's obstacle contacts through the bindings (``QUERY_PYTHON``)."""
     P = S.par[0]
     x = S.x
     obstacles = S.box_lo.shape[0] + S.plane_n.shape[0] > 0
     n_con = n_self = 0
-    if obstacles or P.self_collision:  # (nothing to measure on a free cable)
+    segments = P.self_collision or P.cable_contact  # segment pairs to find (self_contacts)
+    if obstacles or segments:  # (nothing to measure on a free cable)
         margin = step_margin(S.v, P.contact_margin, P.dt, P.fall)
         if obstacles and not given and P.keep_queries and query_holds(x, margin, S.query_x, P.query_margin):
             n_con = P.n_con  # the last query's contacts, still in the buffers (they hold every pair the step needs)
@@ -443,7 +414,7 @@ def _step_contacts(S, given):
         if P.host:  # a user world's mj_step must not see the proxy's pairs
             for p in range(P.pair_start, P.pair_stop):
                 S.pair_margin[p] = PAIRS_OFF
-        if P.self_collision:
+        if segments:
             n_self = self_contacts(S, 2.0 * P.radius + margin)
     P.n_con, P.n_self = n_con, n_self
     return True

@@ -79,7 +79,7 @@ PARAMS = np.dtype([
     ("alpha_s", "f8"), ("alpha_b", "f8"), ("alpha_c", "f8"), ("k_s", "f8"), ("k_b", "f8"), ("k_c", "f8"),
     ("inv_l0sq", "f8"),  # 1/m²: 1 / rest segment length²
     ("omega", "f8"),  # Jacobi relaxation
-    ("radius", "f8"), ("mu_self", "f8"),  # m, the cable's radius; its own Coulomb μ (self contacts)
+    ("radius", "f8"),  # m, the cables' radius
     ("iterations", "i8"), ("substeps", "i8"), ("order", "i8"), ("bending", "i8"),  # ORDER_*, BEND_*
     ("sqrt_approx", "?"), ("direct_all", "?"), ("bandwidth", "i8"),  # the direct order's system
     # the step: dt (s), divergence limits (m from the origin, m/s), the contact query's margin (m) and what gravity
@@ -135,6 +135,9 @@ PARAMS = np.dtype([
     # substep's iterations so far (the impact test's gate: a struck contact is that deep after the prediction)
     ("impact_speed", "f8"), ("impact_iterations", "i8"), ("impact_tol", "f8"), ("impacts", "i8"),
     ("substep_depth", "f8"),
+    # several cables (the topology fields): whether segments of different cables touch (cable contacts, always on
+    # with several cables), and the substeps summed in junction_sum (a step's count: par.substeps)
+    ("cable_contact", "?"), ("junction_count", "i8"),
 ])
 
 
@@ -145,8 +148,9 @@ def _a(dtype, ndim):
 _F1, _F2, _F3, _I1, _I2, _B1 = (_a(types.float64, 1), _a(types.float64, 2), _a(types.float64, 3),
                                 _a(types.int64, 1), _a(types.int64, 2), _a(types.boolean, 1))
 
-#: The state's fields: name, numba type, and what it holds (N particles, n = N − 1 segments, P pins, K clamps, R
-#: direct rows, B obstacles, C/S obstacle/self contact capacity, L body pins, G moving geoms).
+#: The state's fields: name, numba type, and what it holds (N particles of all cables, n = N − 1 segments (gaps
+#: between cables included), P pins, K clamps, R direct rows, B obstacles, C/S obstacle/self contact capacity (in
+#: the topology fields C: cables), L body pins, G moving geoms, J junctions).
 FIELDS = (
     # the chain
     ("x", _F2, "(N, 3) m positions"), ("v", _F2, "(N, 3) m/s velocities"), ("x0", _F2, "(N, 3) m substep start"),
@@ -188,10 +192,12 @@ FIELDS = (
     ("con_mu", _F1, "(C,) Coulomb μ"), ("con_shape", _I1, "(C,) the obstacle's shape row (−1: half-space only)"),
     ("con_face", _I1, "(C,) the face n₀ picks on a static box (BOX_FACE_*; −1: none, or found in every sweep)"),
     ("con_lam", _F1, "(C,) kg·m normal multipliers"),
-    # self contacts (S: capacity, par.n_self in use; grown together by query_kernels.self_contacts)
+    # self contacts (S: capacity, par.n_self in use; grown together by cable_contact_kernels.self_contacts)
     ("self_pair", _I2, "(S, 2) segments i, j"), ("self_st", _F2, "(S, 2) fractions s, t of the closest points"),
     ("self_normal", _F2, "(S, 3) unit normal from segment j to segment i"),
     ("self_lam_n", _F1, "(S,) kg·m normal multipliers"), ("self_lam_t", _F1, "(S,) kg·m friction multipliers"),
+    ("self_anchor", _F2, "(S, 5) a contact between two cables' friction anchor, kept across steps: the fractions s, "
+     "t of the points that touched and the normal then (cable_contact_kernels)"),
     # obstacle shapes (B rows; contacts and anchors name their row)
     ("shape_type", _I1, "(B,) MuJoCo geom type (mjtGeom)"), ("shape_size", _F2, "(B, 3) m geom size"),
     ("shape_pos", _F2, "(B, 3) m world position"), ("shape_rot", _F3, "(B, 3, 3) world rotation (geom to world)"),
@@ -252,6 +258,15 @@ FIELDS = (
     ("end_clamp", _I1, "(2,) the clamp row at the rod's start and end (−1: none)"),
     ("cs_jac", _F3, "(4n + 4, 3, 3) Jacobian blocks"), ("cs_band", _F2, "(6n + 3, 9) the direct solve's band"),
     ("cs_rhs", _F1, "(6n + 3,) its right-hand side, then Δλ"), ("cs_db", _F2, "(n, 3) rad body rotations of a solve"),
+    # the topology of several cables (one chain per cable, concatenated in cable order; the segment from a cable's
+    # last particle to the next cable's first is a gap: no constraint, contact or check acts on it)
+    ("seg_cable", _I1, "(n,) the cable of each segment (−1: a gap)"),
+    ("chain_seg", _I2, "(C, 2) each cable's segments [first, stop)"), ("cable_mu", _F1, "(C,) each cable's Coulomb μ"),
+    ("junction_p", _I2, "(J, 2) the particles [a, b] a junction makes one point"),
+    ("lam_j", _F2, "(J, 3) kg·m junction multipliers of the substep (the impulse on b · h)"),
+    ("junction_sum", _F2, "(J, 3) N Σ of the step's substep forces on b"),
+    ("joined_p", _I2, "(M, 2) every pair of particles the junctions make one point (through others too): the "
+     "segment pairs near them never touch"),
 )
 
 
@@ -320,9 +335,10 @@ def _obstacle_contacts(S, con_seg, con_s, con_normal, con_offset, con_mu, con_sh
 
 
 @_jit
-def _self_contacts(S, self_pair, self_st, self_normal, self_lam_n, self_lam_t):
+def _self_contacts(S, self_pair, self_st, self_normal, self_lam_n, self_lam_t, self_anchor):
     S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t = (self_pair, self_st, self_normal, self_lam_n,
                                                                          self_lam_t)
+    S.self_anchor = self_anchor
 
 
 @_jit
@@ -394,6 +410,12 @@ def _frame_scratch(S, clamp_seg, clamp_q, clamp_qfrom, clamp_qto, clamp_react, c
 
 
 @_jit
+def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p):
+    S.seg_cable, S.chain_seg, S.cable_mu = seg_cable, chain_seg, cable_mu
+    S.junction_p, S.lam_j, S.junction_sum, S.joined_p = junction_p, lam_j, junction_sum, joined_p
+
+
+@_jit
 def _new():
     return structref.new(STATE_TYPE)
 
@@ -408,7 +430,7 @@ _PARTS = (
     (_anchors, ("fric_unit", "fric_push", "fric_cone", "fric_sole", "anchor", "anchor_ob")),
     (_obstacle_contacts, ("con_seg", "con_s", "con_normal", "con_offset", "con_mu", "con_shape", "con_face",
                           "con_lam")),
-    (_self_contacts, ("self_pair", "self_st", "self_normal", "self_lam_n", "self_lam_t")),
+    (_self_contacts, ("self_pair", "self_st", "self_normal", "self_lam_n", "self_lam_t", "self_anchor")),
     (_shapes, ("shape_type", "shape_size", "shape_pos", "shape_rot", "shape_moves", "impulse_force",
                "impulse_moment")),
     (_query, ("box_lo", "box_hi", "plane_n", "plane_p", "struct_i32", "struct_i64", "arena_f64", "arena_i32",
@@ -426,6 +448,7 @@ _PARTS = (
     (_frames, ("q", "q0", "omega", "inertia", "wq", "darboux0", "lam_ss", "lam_bt", "lam_end")),
     (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "clamp_wq", "end_clamp",
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),
+    (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 
@@ -449,6 +472,6 @@ def contact_buffers(S):
 
 @_jit
 def self_contact_buffers(S):
-    """The self-contact buffers (``self_pair``, ``self_st``, ``self_normal``, ``self_lam_n``, ``self_lam_t``), as
-    :func:`contact_buffers`."""
-    return S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t
+    """The segment-contact buffers (``self_pair``, ``self_st``, ``self_normal``, ``self_lam_n``, ``self_lam_t``,
+    ``self_anchor``), as :func:`contact_buffers`."""
+    return S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t, S.self_anchor

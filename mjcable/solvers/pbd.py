@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from mjcable.scene import Scene
 from mjcable.solvers.settings import ParticleSettings, bending_kind
-from mjcable.solvers.state import Rules
+from mjcable.solvers.state import Rules, shared_cable
 from mjcable.solvers.user_constraints import UserConstraint, iteration_factor
 
 __all__ = ["rules", "UserConstraint", "iteration_factor", "derived_bend_factor", "IGNORES", "FACTOR_STRETCH"]
@@ -43,7 +43,7 @@ _INTERIOR_BEND_WEIGHT = 6.0  # Σ (1, −2, 1)² of the curvature constraint's g
 
 def derived_bend_factor(scene: Scene, h: float) -> float:
     """The fraction of a curvature violation XPBD's first iteration removes at substep ``h``: W / (W + α̃)."""
-    cable = scene.cable
+    cable = shared_cable(scene, ("segment_length", "bending_stiffness", "mass per segment"))
     l0 = cable.segment_length
     w = cable.n_segments / cable.mass  # interior inverse mass
     weight = _INTERIOR_BEND_WEIGHT * w / l0**4
@@ -53,7 +53,7 @@ def derived_bend_factor(scene: Scene, h: float) -> float:
 
 def bending_rules(model: str, scene: Scene, settings: ParticleSettings, h: float) -> tuple:
     """(bending kind, per-substep bend factor k) for the stiffness-based solvers ``jakobsen`` and ``pbd``."""
-    ei = scene.cable.bending_stiffness
+    ei = shared_cable(scene, ("bending_stiffness",)).bending_stiffness
     bending = bending_kind(settings, ei, settings.bend_factor)
     if bending == "curvature":
         if settings.bend_factor is not None:

@@ -3,10 +3,10 @@ step driver (:func:`mjcable.solvers.kernels.run_steps`), which queries between s
 (:func:`query_obstacles`, :mod:`mjcable.solvers.capi`), and by the Python fallback where that is unavailable
 (:meth:`mjcable.solvers.contacts.ObstacleContacts.query`: :func:`contacts_from_mujoco` on the bindings' contacts).
 Both turn MuJoCo's contacts into the solver's with :func:`_take_contact`. The bounding-box test that skips the query
-(``touches_obstacles``) lives in :mod:`mjcable.solvers.kernels`.
+(:func:`touches_obstacles`) and the step's margin (:func:`step_margin`) are here too.
 
 **Reusing a query** (:func:`query_holds`). A step needs every pair of a segment and an obstacle closer than its
-margin m (:func:`mjcable.solvers.kernels.step_margin`: the contact margin plus the step's travel). A query run with
+margin m (:func:`step_margin`: the contact margin plus the step's travel). A query run with
 the margin m_q at positions x_q found every pair closer than m_q; a pair it did not find was farther than m_q, and
 after every particle has moved by at most δ = maxₚ |xₚ − x_qₚ| it is farther than m_q − δ (a segment's axis point
 is a convex combination of its two particles, so it moves by at most δ too, and the proxy capsule, of the rest
@@ -20,9 +20,7 @@ normal from the query, which go stale as the cable moves: the slack also bounds 
 millimetres: the setting's comment). Not for moving obstacles or a user world: their queries are never kept.
 A fresh query marks its contacts that stay over one flat face while it is kept (:func:`flatten_contacts`): their
 point moves less than m_q, so one found more than that inside a static box's face never leaves the face's plane.
-
-References:
-  [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
+The self contacts and the contacts between cables are found by :mod:`mjcable.solvers.cable_contact_kernels`.
 """
 
 from __future__ import annotations
@@ -34,92 +32,21 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.contact_kernels import box_face
 from mjcable.solvers.kernels_layout import (BOX_FACE_FLAT, BOX_FACE_NEGATIVE, BOX_FACE_NONE, BOX_FACE_SOLE, GEOM_BOX,
                                             GEOM_PLANE)
 
-__all__ = ["find_self_contacts", "self_contacts", "query_holds", "contacts_from_mujoco", "query_obstacles", "reserve_contacts",
-           "refresh_moving", "proxy_poses", "segment_closest"]
+__all__ = ["step_margin", "touches_obstacles", "query_holds", "contacts_from_mujoco", "query_obstacles", "reserve_contacts", "refresh_moving",
+           "proxy_poses"]
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction
-_PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
-_ROUND_OFF = 1e-9  # relative: a radius equal to half a segment up to this does not overlap its neighbours
 # A contact this close to a segment's end (as a fraction of it) acts at the particle (20 µm on a 2 cm segment). MuJoCo
 # puts the end contacts of a capsule lying on a flat face up to a few 1e-5 of the segment off its ends (the table
 # scene at rest), so that a fraction of 1e-9 kept most pairs of the neighbouring capsules' contacts at one particle
 # apart: two projections of the same constraint (86 contacts instead of 51 on the table at rest).
 _END_FRACTION = 1e-3
 _SAME_NORMAL = 1.0 - 1e-6  # cosine above which two contacts at one particle with one obstacle are one contact
-
-@_inline
-def segment_closest(a, e, f, c, d1d2):
-    """Fractions (s, t) of the closest points of two segments P(s) = p₀ + s d₁, Q(t) = q₀ + t d₂ from
-    a = d₁·d₁, e = d₂·d₂, f = d₂·r, c = d₁·r, d1d2 = d₁·d₂, r = p₀ − q₀ ([E05] §5.1.9)."""
-    denom = a * e - d1d2 * d1d2
-    s = 0.0
-    if denom > _PARALLEL * a * e:  # not parallel
-        s = min(max((d1d2 * f - c * e) / denom, 0.0), 1.0)
-    t = (d1d2 * s + f) / e if e > 0.0 else 0.0
-    if t < 0.0:
-        t = 0.0
-        s = min(max(-c / a, 0.0), 1.0) if a > 0.0 else 0.0
-    elif t > 1.0:
-        t = 1.0
-        s = min(max((d1d2 - c) / a, 0.0), 1.0) if a > 0.0 else 0.0
-    return s, t
-
-
-@_nogil
-def find_self_contacts(x, reach, first, pair, st, normal):
-    """Pairs of segments at least ``first`` (>= 2) apart (j − i ≥ first, each pair once) whose axes are closer than
-    ``reach`` metres;
-    fills ``pair`` (cap, 2), the fractions (s, t) of their closest points into ``st`` (cap, 2) and the unit normal
-    from segment j to segment i into ``normal`` (cap, 3).
-    Returns the number found, or −1 if more than ``cap`` (the caller grows the buffers and asks again)."""
-    nseg = x.shape[0] - 1
-    lo = np.empty((nseg, 3))
-    hi = np.empty((nseg, 3))
-    for i in range(nseg):
-        for comp in range(3):
-            lo[i, comp] = min(x[i, comp], x[i + 1, comp])
-            hi[i, comp] = max(x[i, comp], x[i + 1, comp])
-    count = 0
-    cap = pair.shape[0]
-    for i in range(nseg):
-        for j in range(i + first, nseg):
-            if (lo[i, 0] > hi[j, 0] + reach or lo[j, 0] > hi[i, 0] + reach or lo[i, 1] > hi[j, 1] + reach
-                    or lo[j, 1] > hi[i, 1] + reach or lo[i, 2] > hi[j, 2] + reach or lo[j, 2] > hi[i, 2] + reach):
-                continue
-            a = e = f = c = d1d2 = 0.0
-            for comp in range(3):
-                d1 = x[i + 1, comp] - x[i, comp]
-                d2 = x[j + 1, comp] - x[j, comp]
-                r = x[i, comp] - x[j, comp]
-                a += d1 * d1
-                e += d2 * d2
-                f += d2 * r
-                c += d1 * r
-                d1d2 += d1 * d2
-            s, t = segment_closest(a, e, f, c, d1d2)
-            d0 = (1.0 - s) * x[i, 0] + s * x[i + 1, 0] - (1.0 - t) * x[j, 0] - t * x[j + 1, 0]
-            d1 = (1.0 - s) * x[i, 1] + s * x[i + 1, 1] - (1.0 - t) * x[j, 1] - t * x[j + 1, 1]
-            d2 = (1.0 - s) * x[i, 2] + s * x[i + 1, 2] - (1.0 - t) * x[j, 2] - t * x[j + 1, 2]
-            dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            if dist >= reach or dist < _TINY_LENGTH:
-                continue
-            if count == cap:
-                return -1
-            pair[count, 0] = i
-            pair[count, 1] = j
-            st[count, 0] = s
-            st[count, 1] = t
-            normal[count, 0] = d0 / dist
-            normal[count, 1] = d1 / dist
-            normal[count, 2] = d2 / dist
-            count += 1
-    return count
-
 
 @_inline
 def _take_contact(S, g0, g1, dist, pos, frame, at_particle, count):
@@ -273,6 +200,44 @@ def _call_model_data(typingctx, fn, model, data):
 
 
 @_inline
+def step_margin(v, contact_margin, dt, fall):
+    """The contact query's margin (m) for the next step: ``contact_margin`` plus the fastest particle's travel in
+    one step, speed · dt + ``fall`` (½ g dt²), from ``v`` (N, 3); ``contact_margin`` alone for a non-finite state."""
+    top = 0.0
+    for p in range(v.shape[0]):
+        s2 = v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1] + v[p, 2] * v[p, 2]
+        if s2 > top or s2 != s2:
+            top = s2
+    margin = contact_margin + math.sqrt(top) * dt + fall
+    return margin if math.isfinite(margin) else contact_margin
+
+
+@_jit
+def touches_obstacles(x, reach, box_lo, box_hi, plane_n, plane_p):
+    """Whether the bounding box of particles ``x`` (N, 3), grown by ``reach`` metres, touches an obstacle: a world
+    bounding box (``box_lo``, ``box_hi`` (B, 3)) or the solid side of a plane (unit normal ``plane_n``, point
+    ``plane_p`` (F, 3))."""
+    lo0 = lo1 = lo2 = math.inf
+    hi0 = hi1 = hi2 = -math.inf
+    for p in range(x.shape[0]):
+        lo0, lo1, lo2 = min(lo0, x[p, 0]), min(lo1, x[p, 1]), min(lo2, x[p, 2])
+        hi0, hi1, hi2 = max(hi0, x[p, 0]), max(hi1, x[p, 1]), max(hi2, x[p, 2])
+    lo, hi = (lo0 - reach, lo1 - reach, lo2 - reach), (hi0 + reach, hi1 + reach, hi2 + reach)
+    for k in range(box_lo.shape[0]):
+        if (lo[0] <= box_hi[k, 0] and hi[0] >= box_lo[k, 0] and lo[1] <= box_hi[k, 1] and hi[1] >= box_lo[k, 1]
+                and lo[2] <= box_hi[k, 2] and hi[2] >= box_lo[k, 2]):
+            return True
+    for k in range(plane_n.shape[0]):
+        depth = 0.0
+        for comp in range(3):
+            depth += plane_n[k, comp] * (0.5 * (lo[comp] + hi[comp]) - plane_p[k, comp])
+            depth -= abs(plane_n[k, comp]) * 0.5 * (hi[comp] - lo[comp])
+        if depth <= 0.0:
+            return True
+    return False
+
+
+@_inline
 def query_holds(x, margin, query_x, query_margin):
     """Whether the last query's contacts hold every pair a step at positions ``x`` (N, 3) m needs within ``margin``
     m: maxₚ |xₚ − ``query_x``ₚ| ≤ ``query_margin`` − ``margin`` (module docstring, "Reusing a query"). False for
@@ -302,27 +267,6 @@ def reserve_contacts(S, capacity):
         S.con_shape = np.zeros(cap, dtype=np.int64)
         S.con_face = np.zeros(cap, dtype=np.int64)
         S.con_lam = np.zeros(cap)
-
-
-@_jit
-def self_contacts(S, reach):
-    """Self contacts of the chain ``S.x`` closer than ``reach`` metres (:func:`find_self_contacts`) into
-    ``S.self_pair``, ``S.self_st``, ``S.self_normal`` (the self-contact buffers, grown together until they hold them
-    all); returns their number. Segments whose capsules overlap at rest never touch: those closer along the chain
-    than the cable's diameter, (j − i − 1) l₀ < 2 r (:meth:`mjcable.scene.CableSpec.overlapping_neighbours`), which
-    would push each other apart and stretch the cable."""
-    first = int(math.ceil(2.0 * S.par[0].radius / S.rest[0] * (1.0 - _ROUND_OFF))) + 1
-    first = max(first, 2)
-    count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal)
-    while count < 0:
-        cap = max(2 * S.self_pair.shape[0], 1)
-        S.self_pair = np.zeros((cap, 2), dtype=np.int64)
-        S.self_st = np.zeros((cap, 2))
-        S.self_normal = np.zeros((cap, 3))
-        S.self_lam_n = np.zeros(cap)
-        S.self_lam_t = np.zeros(cap)
-        count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal)
-    return count
 
 
 @_inline

@@ -19,11 +19,11 @@ from typing import Optional
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mjcable.scene import Scene
+from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import kernels_layout as layout
 from mjcable.solvers.settings import ParticleSettings
 
-__all__ = ["Rules", "StateArrays", "chain_arrays", "quat_mul", "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
+__all__ = ["Rules", "StateArrays", "chain_arrays", "shared_cable", "topology", "quat_mul", "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
 
 ORDER_CODES = {"gauss-seidel": layout.ORDER_GAUSS_SEIDEL, "jacobi": layout.ORDER_JACOBI,
                "direct": layout.ORDER_DIRECT}
@@ -80,19 +80,24 @@ def _perpendiculars(axis: np.ndarray) -> np.ndarray:
     return np.stack([d1, np.cross(axis, d1)])
 
 
-def _direct_rows(n_particles: int, bending: str, clamp_pq: np.ndarray, transverse: bool = False) -> dict:
-    """The banded system's rows, ordered by their first particle, with per-particle row lists and the
-    half-bandwidth; with ``transverse``, each stretch row followed by its two transverse rows (the geometric
-    stiffness, :mod:`mjcable.solvers.direct_kernels`)."""
-    n = n_particles - 1
-    rows = [(i, layout.ROW_STRETCH, i, (i, i + 1)) for i in range(n)]
-    if transverse:
-        rows = [row for i in range(n) for row in
-                [rows[i]] + [(i, layout.ROW_TRANSVERSE, 2 * i + k, (i, i + 1)) for k in range(2)]]
+def _direct_rows(link: np.ndarray, bending: str, clamp_pq: np.ndarray, transverse: bool = False) -> dict:
+    """The banded system's rows of the segments ``link`` (n,) marks as real (a gap between two cables has none), in
+    order of their first particle, with per-particle row lists and the half-bandwidth; with ``transverse``, each
+    stretch row followed by its two transverse rows (the geometric stiffness, :mod:`mjcable.solvers.direct_kernels`).
+    The gaps make it one band per cable, solved as one."""
+    n = len(link)
+    n_particles = n + 1
+    segments = [i for i in range(n) if link[i]]
+    triplets = [b for b in range(n - 1) if link[b] and link[b + 1]]
+    rows = []
+    for i in segments:
+        rows += [(i, layout.ROW_STRETCH, i, (i, i + 1))]
+        if transverse:
+            rows += [(i, layout.ROW_TRANSVERSE, 2 * i + k, (i, i + 1)) for k in range(2)]
     if bending == "curvature":
-        rows += [(b, layout.ROW_CURVATURE, 3 * b + comp, (b, b + 1, b + 2)) for b in range(n - 1) for comp in range(3)]
+        rows += [(b, layout.ROW_CURVATURE, 3 * b + comp, (b, b + 1, b + 2)) for b in triplets for comp in range(3)]
     elif bending == "distance":
-        rows += [(b, layout.ROW_DISTANCE, b, (b, b + 2)) for b in range(n - 1)]
+        rows += [(b, layout.ROW_DISTANCE, b, (b, b + 2)) for b in triplets]
     for kc, (p, q) in enumerate(clamp_pq):
         rows += [(min(p, q), layout.ROW_CLAMP, 2 * kc + m, (int(p), int(q))) for m in range(2)]
     rows.sort(key=lambda r: r[0])  # stable: keeps the kinds' relative order per particle
@@ -105,7 +110,7 @@ def _direct_rows(n_particles: int, bending: str, clamp_pq: np.ndarray, transvers
         for slot, p in enumerate(parts):
             row_p[r, slot] = p
             touching[p].append((r, slot))
-    width = max(len(t) for t in touching)
+    width = max(max(len(t) for t in touching), 1)
     prow = np.full((n_particles, width), -1, dtype=np.int64)
     pslot = np.zeros((n_particles, width), dtype=np.int64)
     bandwidth = 0
@@ -132,8 +137,76 @@ def _contact_buffers(capacity: int, self_capacity: int) -> dict:
     c, s = capacity, self_capacity
     return dict(con_seg=np.zeros(c, dtype=np.int64), con_s=np.zeros(c), con_normal=np.zeros((c, 3)),
                 con_offset=np.zeros(c), con_mu=np.zeros(c), con_shape=np.zeros(c, dtype=np.int64),
-                con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64), self_st=np.zeros((s, 2)),
-                self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s))
+                con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64),
+                self_st=np.zeros((s, 2)),
+                self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s),
+                self_anchor=np.zeros((s, 5)))
+
+
+#: how a cable's property that the parameter record holds once for all cables is read (:func:`shared_cable`)
+_SHARED = {"radius": lambda c: c.radius, "segment_length": lambda c: c.segment_length, "damping": lambda c: c.damping,
+           "stretch_stiffness": lambda c: c.stretch_stiffness, "bending_stiffness": lambda c: c.bending_stiffness,
+           "mass per segment": lambda c: c.mass / c.n_segments, "friction": lambda c: c.friction}
+_SAME = 1e-12  # relative: two cables' properties this close count as one
+
+
+def shared_cable(scene: Scene, properties: tuple) -> CableSpec:
+    """``scene``'s first cable, standing for all of them in the particle solvers' parameters: each of
+    ``properties`` (names of :data:`_SHARED`) is held once for all cables.
+
+    Raises:
+      ValueError: two cables differ in one of ``properties`` (named, with both values)."""
+    cables = scene.cables
+    first = cables[0]
+    for name in properties:
+        get = _SHARED[name]
+        value = get(first)
+        for k, cable in enumerate(cables[1:], start=1):
+            other = get(cable)
+            if (value is None) != (other is None) or (value is not None and not math.isclose(
+                    value, other, rel_tol=_SAME, abs_tol=0.0)):
+                raise ValueError(f"cables[{k}]: the particle solvers hold one {name} for all cables, got {other!r} "
+                                 f"against cables[0]'s {value!r}; give every cable the same {name}")
+    return first
+
+
+def topology(scene: Scene) -> dict:
+    """The state's topology fields of ``scene``'s cables (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the
+    cable of each segment ``seg_cable`` (n,) (−1: the gap from one cable's last particle to the next one's first),
+    each cable's segments ``chain_seg`` (C, 2) [first, stop), its μ ``cable_mu`` (C,), the junctions' particles
+    ``junction_p`` (J, 2), their multipliers and force sums, and the pairs of particles they join ``joined_p``.
+
+    Raises:
+      ValueError: a clamped junction (the particle solvers join particles, not tangents)."""
+    slices = scene.cable_slices
+    n = scene.n_particles - 1
+    seg_cable = np.full(n, -1, dtype=np.int64)
+    chain_seg = np.zeros((len(slices), 2), dtype=np.int64)
+    for c, part in enumerate(slices):
+        seg_cable[part.start:part.stop - 1] = c
+        chain_seg[c] = part.start, part.stop - 1
+    for j, junction in enumerate(scene.junctions):
+        if junction.clamp:
+            raise ValueError(f"junctions[{j}]: the particle solvers join two particles at one point (a ball joint), "
+                             f"got clamp=True, which they can't hold yet; use clamp=False")
+    junction_p = np.array([scene.junction_particles(j) for j in range(len(scene.junctions))],
+                          dtype=np.int64).reshape(-1, 2)
+    return dict(seg_cable=seg_cable, chain_seg=chain_seg,
+                cable_mu=np.array([c.friction for c in scene.cables], dtype=np.float64), junction_p=junction_p,
+                lam_j=np.zeros((len(junction_p), 3)), junction_sum=np.zeros((len(junction_p), 3)),
+                joined_p=_joined_pairs(junction_p))
+
+
+def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
+    """``(M, 2)`` every pair of particles that the junctions ``junction_p`` (J, 2) make one point, directly or through
+    other junctions (three cables joined by two junctions make three pairs)."""
+    group = {}  # particle -> the set of particles at its point
+    for a, b in junction_p.tolist():
+        joined = group.get(a, {a}) | group.get(b, {b})
+        for p in joined:
+            group[p] = joined
+    pairs = {(a, b) for members in map(frozenset, group.values()) for a in members for b in members if a < b}
+    return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
 
 
 def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> StateArrays:
@@ -146,11 +219,13 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
       settings: validated solver settings.
       dt: the simulator's step in seconds; the substep is ``h = dt / settings.substeps``.
     """
-    cable = scene.cable
-    n_particles = cable.n_particles
+    cable = shared_cable(scene, ("radius", "segment_length", "damping"))
+    topo = topology(scene)
+    link = topo["seg_cable"] >= 0
+    n_particles = scene.n_particles
     h = dt / settings.substeps
-    x = np.array(cable.particles, dtype=np.float64)
-    mass = np.array(cable.particle_masses, dtype=np.float64)
+    x = np.array(scene.particles, dtype=np.float64)
+    mass = np.concatenate([c.particle_masses for c in scene.cables]).astype(np.float64)
     w = 1.0 / mass
     pins = scene.pins
     pin_p = np.array([scene.pin_particle(k) for k in range(len(pins))], dtype=np.int64)
@@ -165,24 +240,25 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         axis = x[q] - x[p]
         clamp_dir[kc] = _perpendiculars(axis / np.linalg.norm(axis))
     v = np.zeros_like(x)  # at rest: Verlet's start is the first substep's prediction (par.verlet_start)
-    n = cable.n_segments
+    n = n_particles - 1
     l0 = cable.segment_length
+    no_clamps = np.zeros((0, 2), dtype=np.int64)
     if settings.order == "direct" and rules.direct_bending:
-        rows = _direct_rows(n_particles, rules.bending, clamp_pq)
+        rows = _direct_rows(link, rules.bending, clamp_pq)
     elif settings.order == "direct":
-        rows = _direct_rows(n_particles, "none", np.zeros((0, 2), dtype=np.int64))
+        rows = _direct_rows(link, "none", no_clamps)
     else:
-        rows = _direct_rows(2, "none", np.zeros((0, 2), dtype=np.int64))  # unused placeholder of the right types
+        rows = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
     geometric = settings.order == "direct" and rules.geometric_stiffness
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
     gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH))
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
-        gs = _direct_rows(n_particles, rules.bending if rules.direct_bending else "none",
-                          clamp_pq if rules.direct_bending else np.zeros((0, 2), dtype=np.int64), transverse=True)
+        gs = _direct_rows(link, rules.bending if rules.direct_bending else "none",
+                          clamp_pq if rules.direct_bending else no_clamps, transverse=True)
     else:
-        gs = _direct_rows(2, "none", np.zeros((0, 2), dtype=np.int64))  # unused placeholder of the right types
+        gs = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
     rows.update({f"gs_{name}": value for name, value in gs.items()})
-    rows["gs_blocks"] = np.zeros((cable.n_segments if gs_chain else 0, 12))
+    rows["gs_blocks"] = np.zeros((n if gs_chain else 0, 12))
     par = np.zeros(1, dtype=layout.PARAMS)
     P = par[0]
     gravity = np.asarray(scene.gravity, dtype=np.float64)
@@ -190,7 +266,8 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             h=h, damp=math.exp(-cable.damping * h), gx=gravity[0], gy=gravity[1], gz=gravity[2],
             alpha_s=rules.alpha_stretch, alpha_b=rules.alpha_bend, alpha_c=rules.alpha_clamp, k_s=rules.k_stretch,
             k_b=rules.k_bend, k_c=rules.k_clamp, inv_l0sq=1.0 / l0**2, omega=settings.omega, radius=cable.radius,
-            mu_self=cable.friction, iterations=settings.iterations, substeps=settings.substeps,
+            cable_contact=len(scene.cables) > 1, junction_count=0, iterations=settings.iterations,
+            substeps=settings.substeps,
             order=ORDER_CODES[settings.order], bending=BENDING_CODES[rules.bending], sqrt_approx=rules.sqrt_approx,
             direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
             gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, gs_chain=gs_chain, direct_solves=0,
@@ -206,8 +283,9 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     a = StateArrays(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
         relax=np.zeros(n_particles), prev=x.copy(), query_x=x.copy(),
-        rest=np.full(n, l0), lam_s=np.zeros(n), lam_gs=np.zeros(n),
-        rest_d=np.full(max(n - 1, 0), 2.0 * l0), lam_d=np.zeros(max(n - 1, 0)), lam_b=np.zeros((max(n - 1, 0), 3)),
+        rest=np.where(link, l0, math.inf), lam_s=np.zeros(n), lam_gs=np.zeros(n),
+        rest_d=np.where(link[:-1] & link[1:], 2.0 * l0, math.inf), lam_d=np.zeros(max(n - 1, 0)),
+        lam_b=np.zeros((max(n - 1, 0), 3)),
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
         lam_c=np.zeros((len(clamps), 2)), clamp_react=np.zeros((len(clamps), 3)),
         clamp_wq=np.zeros((len(clamps), 3, 3)),
@@ -220,7 +298,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         fric_unit=np.zeros((n_particles, 3)), fric_push=np.zeros((n_particles, 3)), fric_cone=np.zeros(n_particles),
         fric_sole=np.zeros(n_particles, dtype=bool),
         anchor=np.zeros((n_particles, 3)), anchor_ob=np.full(n_particles, -1, dtype=np.int64),
-        par=par, **rows, **_contact_buffers(_CONTACT_CAPACITY * n, _SELF_CONTACT_CAPACITY * n))
+        par=par, **rows, **topo, **_contact_buffers(_CONTACT_CAPACITY * n, _SELF_CONTACT_CAPACITY * n))
     for name, typ, _ in layout.FIELDS:  # the query's and the host's fields: empty until the backend fills them
         if name not in a:
             a[name] = np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype)))

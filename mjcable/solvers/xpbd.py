@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from mjcable.scene import Scene
 from mjcable.solvers.settings import ParticleSettings, bending_kind
-from mjcable.solvers.state import Rules
+from mjcable.solvers.state import Rules, shared_cable
 
 __all__ = ["rules"]
 
@@ -30,7 +30,7 @@ __all__ = ["rules"]
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     """XPBD's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
     del h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
-    cable = scene.cable
+    cable = shared_cable(scene, ("segment_length", "stretch_stiffness", "bending_stiffness"))
     l0 = cable.segment_length
     ei = cable.bending_stiffness
     if settings.stretch_compliance is not None:
