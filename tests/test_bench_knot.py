@@ -12,6 +12,7 @@ from mjcable.bench.case import Case
 from mjcable.bench.runner import run_case
 
 
+@pytest.mark.slow
 def test_the_knot_row_is_the_least_self_distance_of_a_step_by_step_pull():
     # the runner drives the knot before every step as a user would (knot.knot_drive, then Simulator.step): its
     # error is that run's least distance between two segments in radii, bit for bit, and the knot held
@@ -32,7 +33,7 @@ def test_the_knot_row_is_the_least_self_distance_of_a_step_by_step_pull():
 
 
 @pytest.mark.parametrize("model, outcome, reason", [
-    ("springs", "tunneled", ""),  # spheres at the particles: the strands slip between them
+    pytest.param("springs", "tunneled", "", marks=pytest.mark.slow),  # spheres at the particles: the strands slip between them
     ("flexrod", "rejected", "self_collision=True needs a radius of at most half a segment"),
 ])
 def test_native_models_that_cannot_hold_the_knot_are_classified(model, outcome, reason):

@@ -232,7 +232,7 @@ def _random_gripper_walk(sim: mjcable.Simulator, k: int, seconds: float, seed: i
 
 @pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("socket", [False, True])
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.slow)])  # seed 2 with the slow tests
 def test_far_end_gripper_moving_randomly_stays_stable(model, socket, seed):
     """A gripper holding the cable's far end (particle n, not the chain's first particle), moved at 0.5 m/s in
     random directions for 3 s, keeps the simulation finite and warning-free and carries its particle along; with a
@@ -253,7 +253,7 @@ def test_far_end_gripper_moving_randomly_stays_stable(model, socket, seed):
 
 
 @pytest.mark.parametrize("model", MODELS)
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.slow)])  # seed 2 with the slow tests
 def test_stiff_clamped_cable_stays_stable_under_a_randomly_moving_clamped_gripper(model, seed):
     """A stiff ``hang`` cable (E = 1e7 Pa) clamped in the world at particle 0 and by a gripper at particle n (the
     frames at both ends held by clamp bodies and their connects), the gripper moved at 0.5 m/s in random directions

@@ -45,11 +45,15 @@ MIN_CABLE_PIXELS = 30  # of a cable drawn at least 1.5 pixels in radius in a til
 
 
 def _params(models, reasons=None) -> list:
-    """``models`` as test parameters (:func:`catalog_params.marked`), those named in ``reasons`` a strict xfail."""
+    """``models`` as test parameters (:func:`catalog_params.marked`), those named in ``reasons`` a strict xfail; all
+    but the first of each family run with the slow tests."""
     reasons = reasons or {}
     params = []
+    firsts = {next(m for m in models if catalog.get(m).family == f) for f in {catalog.get(m).family for m in models}}
     for m in models:
         marks = getattr(marked(m), "marks", ())
+        if m not in firsts:
+            marks = (*marks, pytest.mark.slow)
         if m in reasons:
             marks = (*marks, pytest.mark.xfail(reason=reasons[m], strict=True))
         params.append(pytest.param(m, marks=marks))

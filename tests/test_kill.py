@@ -156,6 +156,7 @@ def test_a_sweep_killed_while_writing_its_plot_leaves_the_old_plot(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
 
 
+@pytest.mark.slow
 def test_a_render_killed_mid_video_leaves_the_old_video_and_no_temporary_file(tmp_path):
     video = tmp_path / "video.mp4"
     video.write_bytes(b"old")

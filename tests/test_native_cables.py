@@ -11,6 +11,8 @@ from mjcable.bench import harness
 from mjcable.errors import PhysicsWarning
 
 NATIVE = catalog.names("native")
+# the quick suite runs the fastest native model (flexrod); the others run with the slow tests
+NATIVE_QUICK = [pytest.param(m, marks=() if m == "flexrod" else pytest.mark.slow) for m in NATIVE]
 G = 9.81
 
 
@@ -36,7 +38,7 @@ LEG, PINS = harness.LEG, harness.PINS
 y_harness = harness.y_harness_scene
 
 
-@pytest.mark.parametrize("model", NATIVE)
+@pytest.mark.parametrize("model", NATIVE_QUICK)
 def test_y_harness_rests_on_the_reference(model):
     """Three catenaries meeting at one point where the three tensions balance: at rest (6 s at 3/s damping) the
     particles lie within 1 mm of the discrete reference (rigid links, the lumped masses: what a model of 20 segments
@@ -75,7 +77,7 @@ def ring(young):
 
 
 @pytest.mark.parametrize("young", [0.0, 3e6])
-@pytest.mark.parametrize("model", NATIVE)
+@pytest.mark.parametrize("model", NATIVE_QUICK)
 def test_a_ring_hangs_closed_and_symmetric(model, young):
     """A loop: the junction keeps the ring closed, the pin carries its weight, and the closed ring hangs symmetric
     about the vertical through its pin (its bottom, where the ends are joined, right below the pin)."""
@@ -168,7 +170,7 @@ def _tangent_angles(scene, x):
     return np.degrees(np.arccos([t[0] @ t[1], t[0] @ t[2]]))
 
 
-@pytest.mark.parametrize("model", NATIVE)
+@pytest.mark.parametrize("model", NATIVE_QUICK)
 def test_a_clamped_junction_keeps_the_angle_between_its_tangents(model):
     """Junction(..., clamp=True): the legs' tangents at the junction keep their start angles (a weld of the segment
     bodies, or the neighbours' distance for point masses) while the harness settles, and each leg stays in balance

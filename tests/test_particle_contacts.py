@@ -56,7 +56,8 @@ def _landing_cases():
         for substeps in (1, 4, 16):
             for dt in (0.002, 0.0005):
                 for landing in LANDINGS:
-                    yield pytest.param(model, substeps, dt, landing,
+                    yield pytest.param(model, substeps, dt, landing,  # 4 and 16 substeps: with the slow tests
+                                       marks=() if substeps == 1 else pytest.mark.slow,
                                        id=f"{model}-{substeps}substeps-{dt * 1e3:g}ms-{landing}")
 
 

@@ -245,7 +245,8 @@ INTERRUPT_AFTER = 0.3  # s of wall time into a long step(T)
 STOP_WITHIN = 0.5  # s: how soon after Ctrl-C the run must stop
 
 
-@pytest.mark.parametrize("model", catalog.names())
+@pytest.mark.parametrize("model", [pytest.param(m, marks=() if m in ("xpbd", "flexrod") else pytest.mark.slow)
+                                   for m in catalog.names()])  # the others with the slow tests
 def test_ctrl_c_stops_a_long_run_soon_at_a_whole_step(model):
     """``step(1e6)`` (half a billion steps) interrupted by Ctrl-C (SIGINT, as ``_thread.interrupt_main`` sends it)
     raises KeyboardInterrupt within half a second, and the state is that of the whole steps taken: a second
