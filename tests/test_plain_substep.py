@@ -56,6 +56,7 @@ def _run(S, arrays, n_sub: int, iterations: int, whole: bool) -> None:
     ("pbd", dict(order="gauss-seidel", substeps=2, iterations=3, stretch_factor=0.7)),  # k < 1
     ("jakobsen", dict(order="gauss-seidel", substeps=2, iterations=2)),  # the square-root approximation
 ])
+@pytest.mark.slow  # kernels.run_phase compiles the step's pieces apart
 @pytest.mark.parametrize("scene_name", ["hang", "socket"])
 def test_plain_substep_equals_the_general_pieces_bit_for_bit(scene_name, model, settings):
     scene = _scene(scene_name)

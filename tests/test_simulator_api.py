@@ -221,6 +221,7 @@ def test_catalogue_entries_are_validated():
         catalog.make_settings("springs", iterations=3)
 
 
+@pytest.mark.slow  # PBD's user constraints compile the step's pieces apart (kernels.run_phase)
 def test_settings_with_user_constraints_rebuild_the_same_simulator(hang):
     floor = mjcable.solvers.UserConstraint(particles=(10,), function=lambda p: p[0, 2] - 0.8, inequality=True)
     sim = mjcable.Simulator(hang, "pbd", constraints=[floor])

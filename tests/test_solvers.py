@@ -292,6 +292,7 @@ def _ground(z_floor):
                            gradient=lambda p: np.array([[0.0, 0.0, 1.0]])) for i in range(13)]
 
 
+@pytest.mark.slow  # PBD's user constraints compile the step's pieces apart (kernels.run_phase)
 def test_user_constraints_analytic_and_numerical_gradients_agree():
     cable = mjcable.CableSpec([[0, 0, 1], [0.6, 0, 1]], 12, 0.005, 0.1, damping=1.0)
     pivot = np.array([0.0, 0.0, 1.2])
