@@ -466,6 +466,7 @@ def test_local_jobs_and_a_scheduler_exclude_each_other(tmp_path):
         parser.parse_args(["bench", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"])
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 def test_sweep_on_worker_processes_runs_a_model_registered_here(tmp_path):
     # The worker is a process of its own that never saw "throwaway": each task carries the client's catalogue entry.
     path = tmp_path / "bench.csv"

@@ -48,6 +48,7 @@ def _socket_force(sim: mjcable.Simulator, k: int) -> float:
     return float(np.linalg.norm(total))
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("model", MODELS)
 def test_hang_settles_to_the_inextensible_catenary(model, catenary):
     scene = mjcable.scenes.get("hang", damping=3.0)  # 50 segments, limp

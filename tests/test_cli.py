@@ -167,6 +167,7 @@ def test_module_runs_as_a_script():
         assert command in out.stdout
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.envs
 def test_render_env_with_mjcable_envs_shows_the_cable(tmp_path, capsys):
     path = tmp_path / "reach.mp4"

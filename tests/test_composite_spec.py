@@ -174,6 +174,7 @@ def test_composite_spec_compiles_to_the_xml_builders_model(name, scene, self_col
     np.testing.assert_allclose(new.body_mass[new.body_plugin >= 0], scene.cable.mass / scene.cable.n_segments)
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("name, scene", CASES, ids=IDS)
 def test_composite_spec_moves_like_the_xml_builder(name, scene, old_model_name):
     old = mjcable.Simulator(scene, old_model_name)

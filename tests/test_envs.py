@@ -568,6 +568,7 @@ def test_tolerance_is_dm_controls():
 # --- task physics, on every model -----------------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_unplug_pull_releases_and_rest_does_not(model):
     env = envs.load("unplug", model, random=0)
@@ -610,6 +611,7 @@ def test_drape_measures_match_their_definitions():
         np.testing.assert_array_equal(physics.measures()[2], physics.ends())
     assert below == {True, False}  # halves with particles below the peg's top and halves without
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_reach_sag_settles_to_the_catenary_and_rewards_its_target(model):
     env = envs.load("reach_sag", model, random=0)
@@ -662,6 +664,7 @@ def test_drape_scripted_solution(model):
     assert time_step.reward > 0.95
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("model", MODEL_PARAMS)
 def test_render_shows_the_cable(model):
     env = envs.load("reach_sag", model, random=0)

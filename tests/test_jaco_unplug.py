@@ -256,6 +256,7 @@ def _compare_script():
     return module
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 def test_compare_script_writes_video_plot_and_pin_forces(tmp_path, capsys):
     """scripts/jaco_compare.py on two models, tiny: a grid video with both cables, a PNG plot, and pin forces at every
     step that carry the cable's weight while it hangs between the hand and the socket."""

@@ -112,6 +112,7 @@ def _judge(sim, scene) -> list:
     return wrong
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("dt", [0.05, 0.2, 1.0])
 @pytest.mark.parametrize("scene_name", ["hang", "table"])
 @pytest.mark.parametrize("model", model_params())

@@ -15,6 +15,7 @@ def hang():
     return mjcable.scenes.get("hang", n_segments=50, damping=3.0)
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("model", model_params("native"))
 def test_settles_to_the_inextensible_catenary(model, hang, catenary):
     sim = mjcable.Simulator(hang, model)  # default dt = 0.002

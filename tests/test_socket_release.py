@@ -107,6 +107,7 @@ def _unplug_release(model: str) -> tuple:
     raise AssertionError(f"{model}: the plug stayed in")
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.envs
 def test_jaco_unplug_socket_lets_go_with_the_native_model():  # about 4 s
     from mjcable.envs import jaco_unplug as ju

@@ -111,6 +111,7 @@ def test_xpbd_direct_elongation_is_e_a_theory_for_any_iterations_and_dt():
     np.testing.assert_allclose(grid, theory, rtol=0.05)
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("model", ["pbd", "jakobsen"])
 def test_pbd_and_jakobsen_stiffen_with_iterations_and_smaller_steps(model):
     """The thesis's accuracy- and timescale-stiffness effects (its Figs. 3.37–3.38) as numbers: with k = 1 the
