@@ -23,6 +23,7 @@ def test_the_harness_scene_is_the_references_three_legs():
     assert harness.y_harness_error(scene, scene.particles) > 0.01  # the start is not the rest
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 def test_the_harness_family_measures_a_native_model_within_a_millimetre():
     row = run_case(Case("harness", "joints", 0.002, n_segments=20))
     assert row["outcome"] == "stable", row["reason"]

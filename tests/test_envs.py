@@ -526,6 +526,7 @@ def _assert_same_steps(a, b) -> None:
 _FIRST_OF_EACH_FAMILY = {catalog.names(family)[0] for family in catalog.FAMILIES}  # the quick run's models
 
 
+@pytest.mark.slow  # (keeps the quick suite of a cold clone under 5 minutes)
 @pytest.mark.parametrize("task, model", _task_model_params(
     lambda task, model: () if model in _FIRST_OF_EACH_FAMILY else (pytest.mark.slow,)))
 def test_control_step_matches_the_per_step_reference(task, model):
