@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable import catalog, reference
+from mjcable import catalog, geometry, reference
 from mjcable.bench import contact
 from mjcable.scene import JUNCTION_TOLERANCE
 
@@ -297,23 +297,6 @@ def test_y_harness_settles_on_the_reference(model):
         np.testing.assert_allclose(sim.junction_forces[j], held, atol=0.02 * np.linalg.norm(held))
 
 
-def _segment_distance(p: np.ndarray, q: np.ndarray) -> float:
-    """The least distance between the segments of polylines ``p`` (n + 1, 3) and ``q`` (m + 1, 3) (closest points of
-    two segments, clamped to both)."""
-    a0, d1 = p[:-1, None], (p[1:] - p[:-1])[:, None]
-    b0, d2 = q[None, :-1], (q[1:] - q[:-1])[None]
-    r = a0 - b0
-    a, e, b = np.sum(d1 * d1, -1), np.sum(d2 * d2, -1), np.sum(d1 * d2, -1)
-    c, f = np.sum(d1 * r, -1), np.sum(d2 * r, -1)
-    best = np.inf
-    for s in np.linspace(0.0, 1.0, 11):  # s on a grid, t exact for it, then s exact for that t: enough for a bound
-        t = np.clip((b * s + f) / e, 0.0, 1.0)
-        s2 = np.clip((b * t - c) / a, 0.0, 1.0)
-        d = a0 + s2[..., None] * d1 - b0 - t[..., None] * d2
-        best = min(best, float(np.sqrt(np.min(np.sum(d * d, -1)))))
-    return best
-
-
 @pytest.mark.parametrize("model", PARTICLE)
 @pytest.mark.parametrize("dt", [0.002, 0.005])
 def test_a_cable_thrown_onto_another_never_passes_through(model, dt):
@@ -331,7 +314,7 @@ def test_a_cable_thrown_onto_another_never_passes_through(model, dt):
     first, second = scene.cable_slices
     speeds = -np.diff(traj.positions[:, second, 2].mean(axis=1)) / dt
     assert speeds.max() > 4.5  # it struck at about 5 m/s
-    closest = min(_segment_distance(x[first], x[second]) for x in traj.positions)
+    closest = min(float(geometry.segment_distances(x[first], x[second]).min()) for x in traj.positions)
     assert r <= closest < 2 * r + 1e-3  # it struck the rail, and never came within half the sum of the radii
 
 

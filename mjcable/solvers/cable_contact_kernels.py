@@ -141,9 +141,9 @@ def find_self_contacts(x, reach, first, pair, st, normal, chains, own, joined_p)
 
 
 @_inline
-def _take_pair(x, reach, i, j, pair, st, normal, count):
-    """Segments i and j into row ``count`` of the buffers if their axes are closer than ``reach`` (see
-    :func:`find_self_contacts`). Returns the new count, or −1 if the buffers are full."""
+def _closest_points(x, i, j):
+    """The closest points of segments (i, i+1) and (j, j+1) of ``x`` ([E05] §5.1.9): their fractions (s, t), the
+    vector d = pᵢ(s) − pⱼ(t) between them (three floats, m) and its length |d| (m)."""
     a = e = f = c = d1d2 = 0.0
     for comp in range(3):
         d1 = x[i + 1, comp] - x[i, comp]
@@ -158,7 +158,14 @@ def _take_pair(x, reach, i, j, pair, st, normal, count):
     d0 = (1.0 - s) * x[i, 0] + s * x[i + 1, 0] - (1.0 - t) * x[j, 0] - t * x[j + 1, 0]
     d1 = (1.0 - s) * x[i, 1] + s * x[i + 1, 1] - (1.0 - t) * x[j, 1] - t * x[j + 1, 1]
     d2 = (1.0 - s) * x[i, 2] + s * x[i + 1, 2] - (1.0 - t) * x[j, 2] - t * x[j + 1, 2]
-    dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return s, t, d0, d1, d2, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+
+
+@_inline
+def _take_pair(x, reach, i, j, pair, st, normal, count):
+    """Segments i and j into row ``count`` of the buffers if their axes are closer than ``reach`` (see
+    :func:`find_self_contacts`). Returns the new count, or −1 if the buffers are full."""
+    s, t, d0, d1, d2, dist = _closest_points(x, i, j)
     if dist >= reach or dist < _TINY_LENGTH:
         return count
     if count == pair.shape[0]:
@@ -232,21 +239,7 @@ def _remeasure(x, i, j, st, normal, c):
     points, the knot's segments met elsewhere, ``docs/measurements.md``). A pair that would turn its normal against the
     query's (the segments passed each other) keeps its last points and normal, so that the sweep pushes it back
     rather than through: the contact stays speculative."""
-    a = e = f = cc = d1d2 = 0.0
-    for comp in range(3):
-        d1 = x[i + 1, comp] - x[i, comp]
-        d2 = x[j + 1, comp] - x[j, comp]
-        r = x[i, comp] - x[j, comp]
-        a += d1 * d1
-        e += d2 * d2
-        f += d2 * r
-        cc += d1 * r
-        d1d2 += d1 * d2
-    s, t = segment_closest(a, e, f, cc, d1d2)
-    d0 = (1.0 - s) * x[i, 0] + s * x[i + 1, 0] - (1.0 - t) * x[j, 0] - t * x[j + 1, 0]
-    d1 = (1.0 - s) * x[i, 1] + s * x[i + 1, 1] - (1.0 - t) * x[j, 1] - t * x[j + 1, 1]
-    d2 = (1.0 - s) * x[i, 2] + s * x[i + 1, 2] - (1.0 - t) * x[j, 2] - t * x[j + 1, 2]
-    dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    s, t, d0, d1, d2, dist = _closest_points(x, i, j)
     if dist < _TINY_LENGTH or d0 * normal[c, 0] + d1 * normal[c, 1] + d2 * normal[c, 2] <= 0.0:
         return
     st[c, 0], st[c, 1] = s, t
