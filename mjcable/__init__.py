@@ -13,7 +13,7 @@ from mjcable.backends.protocol import Energy  # noqa: E402
 from mjcable.batch import Batch, BatchTrajectory  # noqa: E402
 from mjcable.catalog import build  # noqa: E402
 from mjcable.errors import PhysicsWarning, SimulationDivergedError  # noqa: E402
-from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Gripper, Junction, Pin, Scene, Sphere  # noqa: E402
+from mjcable.scene import Box, CableSpec, Capsule, Cylinder, Floor, Gripper, Junction, Pin, Ring, Scene, Sphere  # noqa: E402
 from mjcable.simulator import Simulator, Trajectory  # noqa: E402
 from mjcable.spline import CatmullRom, resample  # noqa: E402
 

@@ -10,10 +10,13 @@ from __future__ import annotations
 import dataclasses
 from typing import Optional
 
-from mjcable import _validate
+import numpy as np
+
+from mjcable import _validate, geometry
+from mjcable.obstacles import START_CONTACT_TOLERANCE
 from mjcable._validate import Vec3, set_field as _set
 
-__all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE", "Gripper"]
+__all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE", "Gripper", "check_cables_apart"]
 
 PIN_KINDS = ("world", "gripper", "socket", "body")
 BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
@@ -153,3 +156,33 @@ def points(pairs) -> tuple:
     for i in sorted(root):
         groups.setdefault(find(i), []).append(i)
     return tuple(tuple(g) for g in groups.values())
+
+
+def check_cables_apart(scene) -> None:
+    """Raise if two cables of ``scene`` (a :class:`mjcable.scene.Scene`) start inside each other (their surfaces
+    deeper than :data:`START_CONTACT_TOLERANCE`), but for the segments near a point where junctions join them (within
+    :meth:`mjcable.scene.CableSpec.overlapping_neighbours` + 1 particles of it)."""
+    near = {}  # (point, cable) -> the cable's segments near that junction point
+    for g, point in enumerate(scene.junction_points()):
+        for i in point:
+            c = scene.cable_of(i)
+            local, reach = i - scene.cable_slices[c].start, scene.cables[c].overlapping_neighbours() + 1
+            near.setdefault((g, c), set()).update(range(max(local - reach, 0),
+                                                        min(local + reach, scene.cables[c].n_segments)))
+    for c, d in ((c, d) for c in range(len(scene.cables)) for d in range(c + 1, len(scene.cables))):
+        one, other = scene.cables[c], scene.cables[d]
+        gap = one.radius + other.radius
+        lo = np.maximum(one.particles.min(axis=0), other.particles.min(axis=0)) - gap
+        if np.any(lo > np.minimum(one.particles.max(axis=0), other.particles.max(axis=0)) + gap):
+            continue  # their boxes, grown by the radii, don't meet
+        depth = gap - geometry.segment_distances(one.particles, other.particles)
+        for (g, e), segments in near.items():
+            if e == c and (g, d) in near:
+                depth[np.ix_(sorted(segments), sorted(near[g, d]))] = -np.inf
+        i, j = np.unravel_index(int(np.argmax(depth)), depth.shape)
+        if depth[i, j] > START_CONTACT_TOLERANCE:
+            raise ValueError(
+                f"cables {c} and {d} start inside each other: segment {i} of cable {c} and segment {j} of cable "
+                f"{d} are {gap - depth[i, j]:.4g} m apart, {depth[i, j]:.4g} m less than their radii's sum "
+                f"{gap:g} m (up to {START_CONTACT_TOLERANCE:g} m is allowed); move the cables' points apart, or "
+                f"join them at a point with a Junction")

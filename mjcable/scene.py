@@ -25,6 +25,8 @@ from mjcable._validate import set_field as _set
 from mjcable import obstacles as obstacles_
 from mjcable.joins import BODY_PIN_TOLERANCE, JUNCTION_TOLERANCE, PIN_KINDS, Gripper, Junction, Pin
 from mjcable.obstacles import START_CONTACT_TOLERANCE, Box, Capsule, Cylinder, Floor, Obstacle, Sphere
+from mjcable import rings as rings_
+from mjcable.rings import Ring
 
 __all__ = [
     "GRAVITY",
@@ -47,6 +49,7 @@ __all__ = [
     "Junction",
     "JUNCTION_TOLERANCE",
     "BODY_PIN_REACH",
+    "Ring",
 ]
 
 GRAVITY = np.array([0.0, 0.0, -9.81])  # m/s²
@@ -279,6 +282,8 @@ class Scene:
         the user's names, joint, actuator and sensor order, keyframes and options (see :mod:`mjcable.user_world`).
         ``None``: only the listed obstacles.
       keyframe: the world's keyframe the simulation starts from (``None``: its default pose); only with ``world``.
+      rings: a sequence of :class:`Ring` s (pinholes) that a cable passes through at the start and slides through;
+        the cable's centreline must cross each ring's plane inside its hole (clear of the rim by the cable's radius).
       grippers: a sequence of free :class:`Gripper` s, mocap bodies that hold nothing at the start and grasp a
         particle at run time (:meth:`mjcable.Simulator.grasp`); free gripper ``g`` is numbered ``len(pins) + g``
         where a Simulator numbers grippers (``move_gripper``, ``step_along``). :attr:`gripper_pins` are the gripper
@@ -306,6 +311,7 @@ class Scene:
     world: object = dataclasses.field(default=None, kw_only=True)
     keyframe: Optional[str] = dataclasses.field(default=None, kw_only=True)
     grippers: tuple = dataclasses.field(default=(), kw_only=True)
+    rings: tuple = dataclasses.field(default=(), kw_only=True)
 
     def __post_init__(self):
         _set(self, "cable", _cables(self.cable))
@@ -322,7 +328,7 @@ class Scene:
         _set(self, "junctions", _sequence("junctions", self.junctions, Junction,
                                           "Junction instances, e.g. (Junction((0, -1), (1, 0)),)"))
         self._check_junctions()
-        self._check_cables_apart()
+        joins.check_cables_apart(self)
         _set(self, "grippers", _sequence("grippers", self.grippers, Gripper,
                                          "Gripper instances, e.g. (Gripper((0.0, 0.0, 1.0)),)"))
         obstacles = _sequence("obstacles", self.obstacles, Obstacle,
@@ -330,11 +336,17 @@ class Scene:
         for c, cable in enumerate(self.cables):
             obstacles_.check_start_clear(cable, obstacles, self._named(c))
         _set(self, "obstacles", obstacles)
+        _set(self, "rings", _sequence("rings", self.rings, Ring, "Ring instances, e.g. (Ring((0, 0, 1), (1, 0, 0)),)"))
         if not isinstance(self.name, str):
             raise ValueError(f"name must be a str, got {self.name!r}")
         if self.world is None:
             if self.keyframe is not None:
                 raise ValueError(f"keyframe applies only to a scene with a world, got keyframe={self.keyframe!r}")
+            body_rings = [k for k, ring in enumerate(self.rings) if ring.body is not None]
+            if body_rings:
+                k = body_rings[0]
+                raise ValueError(f"rings[{k}] is on body {self.rings[k].body!r}, but the scene has no world; give "
+                                 f"Scene(..., world=MJCF path or MjSpec)")
             body_pins = [k for k, pin in enumerate(pins) if pin.kind == "body"]
             if body_pins:
                 k = body_pins[0]
@@ -347,6 +359,7 @@ class Scene:
             self._check_body_pins()
             for c in range(len(self.cables)):
                 self._check_start_clear_of_world(c)
+        self._check_rings()
 
     # -- cables ---------------------------------------------------------------------------------------------------
 
@@ -453,34 +466,19 @@ class Scene:
         (a Y-harness's two junctions ``(0, -1)–(1, -1)`` and ``(0, -1)–(2, -1)`` make one point of three)."""
         return joins.points([self.junction_particles(j) for j in range(len(self.junctions))])
 
-    def _check_cables_apart(self) -> None:
-        """Raise if two cables start inside each other (their surfaces deeper than :data:`START_CONTACT_TOLERANCE`),
-        but for the segments near a point where junctions join them (within
-        :meth:`CableSpec.overlapping_neighbours` + 1 particles of it)."""
-        near = {}  # (point, cable) -> the cable's segments near that junction point
-        for g, point in enumerate(self.junction_points()):
-            for i in point:
-                c = self.cable_of(i)
-                local, reach = i - self.cable_slices[c].start, self.cables[c].overlapping_neighbours() + 1
-                near.setdefault((g, c), set()).update(range(max(local - reach, 0),
-                                                            min(local + reach, self.cables[c].n_segments)))
-        for c, d in ((c, d) for c in range(len(self.cables)) for d in range(c + 1, len(self.cables))):
-            one, other = self.cables[c], self.cables[d]
-            gap = one.radius + other.radius
-            lo = np.maximum(one.particles.min(axis=0), other.particles.min(axis=0)) - gap
-            if np.any(lo > np.minimum(one.particles.max(axis=0), other.particles.max(axis=0)) + gap):
-                continue  # their boxes, grown by the radii, don't meet
-            depth = gap - geometry.segment_distances(one.particles, other.particles)
-            for (g, e), segments in near.items():
-                if e == c and (g, d) in near:
-                    depth[np.ix_(sorted(segments), sorted(near[g, d]))] = -np.inf
-            i, j = np.unravel_index(int(np.argmax(depth)), depth.shape)
-            if depth[i, j] > START_CONTACT_TOLERANCE:
-                raise ValueError(
-                    f"cables {c} and {d} start inside each other: segment {i} of cable {c} and segment {j} of cable "
-                    f"{d} are {gap - depth[i, j]:.4g} m apart, {depth[i, j]:.4g} m less than their radii's sum "
-                    f"{gap:g} m (up to {START_CONTACT_TOLERANCE:g} m is allowed); move the cables' points apart, or "
-                    f"join them at a point with a Junction")
+    def _check_rings(self) -> None:
+        """Raise unless every ring's cable and stop particle exist and the cable starts threaded through it
+        (:func:`mjcable.rings.check_threaded`; a ring on a body where the world is loaded)."""
+        for k, ring in enumerate(self.rings):
+            self._check_end(f"rings[{k}]", ring.cable, 0)
+            if ring.stop is not None:
+                self._check_end(f"rings[{k}] stop", ring.cable, ring.stop)
+            if ring.body is None or self.world is not None:
+                rings_.check_threaded(k, ring, self.cables[ring.cable], *self.ring_frame(k))
+
+    def ring_frame(self, k: int) -> tuple:
+        """``(centre, axis)``: ring ``k``'s centre (m) and unit axis in the world frame at the start."""
+        return rings_.start_frame(self.rings[k], self.world)
 
     def _check_body_pins(self) -> None:
         p = self.particles
