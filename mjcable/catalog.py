@@ -68,6 +68,7 @@ class ModelEntry:
       sections: it bends anisotropically (``CableSpec.section`` with unequal semi-axes).
       several_cables: it simulates a scene of several cables (``Scene(cable=(...))``), with contacts between them.
       junctions: it joins cables at ``Scene.junctions`` (and closes loops).
+      start_twist: it starts a cable's frames twisted by ``CableSpec.start_twist``.
     """
 
     name: str
@@ -85,6 +86,7 @@ class ModelEntry:
     sections: bool = False
     several_cables: bool = False
     junctions: bool = False
+    start_twist: bool = False
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
@@ -237,6 +239,10 @@ def _check_cable(cable: CableSpec, model: str, entry: ModelEntry) -> None:
         takers = tuple(n for n, e in _REGISTRY.items() if cable.rest_shape in e.rest_shapes)
         raise ValueError(f"rest_shape must be one of {entry.rest_shapes} for model {model!r}, got "
                          f"{cable.rest_shape!r} (models with that rest shape: {takers})")
+    if cable.start_twist != 0.0 and not entry.start_twist:
+        raise ValueError(f"start_twist must be 0 for model {model!r}, which starts its frames untwisted, got "
+                         f"{cable.start_twist!r} rad (models with a twisted start: "
+                         f"{tuple(n for n, e in _REGISTRY.items() if e.start_twist)})")
     if cable.anisotropic and not entry.sections:
         raise ValueError(f"section must be circular (a = b) for model {model!r}, which bends isotropically, got "
                          f"section={cable.section!r} (models with anisotropic sections: "
@@ -298,6 +304,6 @@ for _module, _settings, _summary in (
                         ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True))
 register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
                     backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
-                    sections=True,
+                    sections=True, junctions=True, start_twist=True,
                     ignores=getattr(cosserat, "IGNORES", {}),
                     summary="XPBD Cosserat rod: material frames, twist, curved rest shapes, direct solve"))

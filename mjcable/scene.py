@@ -96,6 +96,9 @@ class CableSpec:
         the others raise a ``ValueError``.
       section_axis: ``(3,)`` the direction of d₁ (the ``a`` semi-axis) at the cable's start, taken perpendicular
         to the first segment (and carried along the cable without twist); ``None``: the twist-free frames' own.
+      start_twist: Φ in rad, a uniform twist of the start frames (segment i turned about its tangent by
+        Φ (i + ½) / n), while the rest shape stays untwisted: Φ is elastic twist (Michell's ring is a cable closed by
+        a clamped junction with its ends turned by Φ). Only models that honour it (``cosserat``) take Φ ≠ 0.
 
     Raises:
       ValueError: a parameter outside its range, or a curve that cannot be resampled into ``n_segments`` equal
@@ -115,6 +118,7 @@ class CableSpec:
     rest_shape: str = dataclasses.field(default="straight", kw_only=True)
     section: Optional[tuple] = dataclasses.field(default=None, kw_only=True)
     section_axis: Optional[tuple] = dataclasses.field(default=None, kw_only=True)
+    start_twist: float = dataclasses.field(default=0.0, kw_only=True)
 
     def __post_init__(self):
         curve = spline.CatmullRom(self.points, kind=self.kind)  # validates points and kind
@@ -147,6 +151,7 @@ class CableSpec:
                                                                    low=0.0, low_open=True, unit="N"))
         _set(self, "damping", _validate.number("damping", self.damping, low=0.0, unit="1/s"))
         _set(self, "friction", _validate.number("friction", self.friction, low=0.0))
+        _set(self, "start_twist", _validate.number("start_twist", self.start_twist, unit="rad"))
         # segment_length resamples the start state (a curve that cannot be resampled raises here); a radius equal
         # to a segment up to round-off is not larger
         if self.radius > self.segment_length * (1.0 + _ROUND_OFF):

@@ -42,7 +42,7 @@ _RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "relax", "prev", "par", "r
           "pin_release", "pin_force", "pin_sum", "pin_count", "band", "grad", "rhs", "fric_n", "fric_mu",
           "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob", "q", "q0",
           "omega", "lam_ss", "lam_bt", "lam_end", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react",
-          "clamp_wq", "lam_j", "junction_sum")
+          "clamp_wq", "lam_j", "junction_sum", "lam_weld")
 _NO_PATH = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
 
 

@@ -27,7 +27,7 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 
-__all__ = ["rod_direct_limp"]
+__all__ = ["rod_direct_limp", "block_ldlt_solve", "block_ldlt_factor", "block_ldlt_substitute"]
 
 # Relative compliance added to the diagonal of every row, as in the banded solve (cosserat_kernels._REGULARIZATION)
 _REGULARIZATION = 1e-10
@@ -208,7 +208,14 @@ def block_ldlt_solve(band, rhs, t):
     blocks' band are visited). ``band`` is overwritten by L's blocks L_{k,k−1}, L_{k,k−2} and, in the diagonal
     block's lower triangle, D_k⁻¹; ``t`` is (8, 3, 3) scratch. With W_{k,j} = L_{k,j} D_j (D_j symmetric):
     W_{k,k−2} = A_{k,k−2}, W_{k,k−1} = A_{k,k−1} − W_{k,k−2} L_{k−1,k−2}ᵀ, D_k = A_kk − Σ_j W_{k,j} L_{k,j}ᵀ."""
-    nb = rhs.shape[0] // 3
+    block_ldlt_factor(band, t)
+    block_ldlt_substitute(band, rhs)
+
+
+@_jit
+def block_ldlt_factor(band, t):
+    """The factorisation of :func:`block_ldlt_solve`, in place (``band`` (3B, 9), ``t`` (8, 3, 3) scratch)."""
+    nb = band.shape[0] // 3
     w2, w1, l2, l1, d, e2, e1, p1 = t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7]  # e: D⁻¹; p1: L_{k−1,k−2}
     for k in range(nb):
         r = 3 * k
@@ -241,6 +248,12 @@ def block_ldlt_solve(band, rhs, t):
         for a in range(3):
             for b in range(a + 1):
                 band[r + a, a - b] = e1[a, b]
+
+
+@_jit
+def block_ldlt_substitute(band, rhs):
+    """A = L D Lᵀ factored by :func:`block_ldlt_factor` in ``band``: rhs ← A⁻¹ rhs, in place."""
+    nb = rhs.shape[0] // 3
     for k in range(nb):  # L y = rhs
         r = 3 * k
         for j in range(max(0, k - 2), k):

@@ -53,7 +53,7 @@ import numpy as np
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve
 
-__all__ = ["rod_gauss_seidel", "rod_direct"]
+__all__ = ["rod_gauss_seidel", "rod_direct", "direct_rows", "direct_commit"]
 
 # Relative compliance added to the diagonal of every row of the direct solve (an inextensible rod's α = 0 rows):
 # far below any physical compliance, it keeps J W Jᵀ positive definite where a held end makes rows redundant.
@@ -478,12 +478,19 @@ def rod_direct(S, h2):
     rows' largest residual after it, |δb|² + 2 |δb| |Δx| / l₀ (the constraints' second-order terms, which the
     linearisation leaves; |δb|² and |Δx|² summed over the frames and particles, which bounds the largest without a
     branch; :mod:`mjcable.solvers.cosserat_step_kernels`)."""
-    P = S.par[0]
-    inv_l0 = math.sqrt(P.inv_l0sq)
     t = np.empty((8, 3, 3))
     _assemble(S, h2, t[0])
+    block_ldlt_solve(S.cs_band, S.cs_rhs, t)
+    direct_rows(S)
+    return direct_commit(S)
+
+
+@_jit
+def direct_rows(S):
+    """The direct solve's Δλ (in ``cs_rhs``) added to the multipliers, and its moves W Jᵀ Δλ and turns D Jᵀ Δλ
+    into ``dx`` and ``cs_db`` (zeroed first), not yet applied (:func:`direct_commit`)."""
+    inv_l0 = math.sqrt(S.par[0].inv_l0sq)
     rhs = S.cs_rhs
-    block_ldlt_solve(S.cs_band, rhs, t)
     lam_ss, lam_bt, lam_end = S.lam_ss, S.lam_bt, S.lam_end
     n = lam_ss.shape[0]
     dx, db = S.dx, S.cs_db
@@ -508,7 +515,15 @@ def rod_direct(S, h2):
             lam_end[e, 1] += rhs[r + 1]
             lam_end[e, 2] += rhs[r + 2]
             _apply_end(S, e, rhs[r], rhs[r + 1], rhs[r + 2], db, False)
-    x = S.x
+
+
+@_jit
+def direct_commit(S):
+    """Apply a direct solve's moves ``dx`` and turns ``cs_db``; returns :func:`rod_direct`'s bound."""
+    P = S.par[0]
+    inv_l0 = math.sqrt(P.inv_l0sq)
+    x, dx, db = S.x, S.dx, S.cs_db
+    n = db.shape[0]
     s2x = s2b = 0.0  # Σ of the squared particle moves (m²) and frame turns (rad²): bounds of the largest
     for p in range(x.shape[0]):
         x[p, 0] += dx[p, 0]

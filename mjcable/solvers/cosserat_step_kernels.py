@@ -38,6 +38,7 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.cosserat_direct_kernels import rod_direct_limp
+from mjcable.solvers.cosserat_weld_kernels import rod_direct_closed, weld_sweep
 from mjcable.solvers.cosserat_kernels import (
     _end_on, _linearise_bt, _linearise_end, _linearise_ss, _qmul, _rotate_body, rod_direct, rod_gauss_seidel,
 )
@@ -93,6 +94,15 @@ def _solve(S, h2):
     if S.par[0].rod_limp:
         rod_direct_limp(S, h2)
         return math.inf
+    return _rod_direct(S, h2)
+
+
+@_inline
+def _rod_direct(S, h2):
+    """One direct solve of a rod with bend–twist rows: with its welds and junctions where it has them
+    (:mod:`mjcable.solvers.cosserat_weld_kernels`), else the band alone."""
+    if S.weld_seg.shape[0] or S.junction_p.shape[0]:
+        return rod_direct_closed(S, h2)
     return rod_direct(S, h2)
 
 
@@ -141,7 +151,7 @@ def rod_direct_safeguarded(S, h2):
         rod_direct_limp(S, h2)
         if _pins_travel(S) > _ROPE_YANK:
             _newton(S, h2)
-    elif rod_direct(S, h2) > _RESIDUAL_FLOOR:
+    elif _rod_direct(S, h2) > _RESIDUAL_FLOOR:
         _newton(S, h2)
 
 
@@ -172,12 +182,15 @@ def _newton(S, h2):
 @_inline
 def rod_iterate(S):
     """One iteration of the rod's constraints in the configured order (the safeguarded direct solve, or a
-    Gauss-Seidel sweep)."""
+    Gauss-Seidel sweep), then its welds (a loop's closing rows, Gauss-Seidel in either order:
+    :mod:`mjcable.solvers.cosserat_weld_kernels`)."""
     P = S.par[0]
     if P.order == ORDER_DIRECT:
         rod_direct_safeguarded(S, P.h * P.h)
     else:
         rod_gauss_seidel(S, P.h * P.h)
+    if S.weld_seg.shape[0] and (P.order != ORDER_DIRECT or P.rod_limp):  # (else in the direct solve)
+        weld_sweep(S, P.h * P.h)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -237,6 +250,7 @@ def frames_begin(S, sub, n_sub):
     S.lam_ss[:, :] = 0.0
     S.lam_bt[:, :] = 0.0
     S.lam_end[:, :] = 0.0
+    S.lam_weld[:, :] = 0.0
 
 
 @_jit

@@ -256,6 +256,9 @@ FIELDS = (
     ("clamp_wq", _F3, "(K, 3, 3) 1/(kg·m²) a clamp frame's inverse inertia in that frame (0: held; a body clamp's "
      "body; a chain's body clamp: its body's, in the world)"),
     ("end_clamp", _I1, "(2,) the clamp row at the rod's start and end (−1: none)"),
+    ("weld_seg", _I2, "(W, 2) the segments [a, b] whose frames a clamped junction welds (cosserat_weld_kernels)"),
+    ("weld_r0", _F2, "(W, 4) the weld's rest turn q̄_a ⊗ q_b of the start frames"),
+    ("lam_weld", _F2, "(W, 3) the welds' multipliers"),
     ("cs_jac", _F3, "(4n + 4, 3, 3) Jacobian blocks"), ("cs_band", _F2, "(6n + 3, 9) the direct solve's band"),
     ("cs_rhs", _F1, "(6n + 3,) its right-hand side, then Δλ"), ("cs_db", _F2, "(n, 3) rad body rotations of a solve"),
     # the topology of several cables (one chain per cable, concatenated in cable order; the segment from a cable's
@@ -410,6 +413,11 @@ def _frame_scratch(S, clamp_seg, clamp_q, clamp_qfrom, clamp_qto, clamp_react, c
 
 
 @_jit
+def _welds(S, weld_seg, weld_r0, lam_weld):
+    S.weld_seg, S.weld_r0, S.lam_weld = weld_seg, weld_r0, lam_weld
+
+
+@_jit
 def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p):
     S.seg_cable, S.chain_seg, S.cable_mu = seg_cable, chain_seg, cable_mu
     S.junction_p, S.lam_j, S.junction_sum, S.joined_p = junction_p, lam_j, junction_sum, joined_p
@@ -448,6 +456,7 @@ _PARTS = (
     (_frames, ("q", "q0", "omega", "inertia", "wq", "darboux0", "lam_ss", "lam_bt", "lam_end")),
     (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "clamp_wq", "end_clamp",
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),
+    (_welds, ("weld_seg", "weld_r0", "lam_weld")),
     (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)

@@ -170,14 +170,15 @@ def shared_cable(scene: Scene, properties: tuple) -> CableSpec:
     return first
 
 
-def topology(scene: Scene) -> dict:
+def topology(scene: Scene, *, frames: bool = False) -> dict:
     """The state's topology fields of ``scene``'s cables (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the
     cable of each segment ``seg_cable`` (n,) (−1: the gap from one cable's last particle to the next one's first),
     each cable's segments ``chain_seg`` (C, 2) [first, stop), its μ ``cable_mu`` (C,), the junctions' particles
     ``junction_p`` (J, 2), their multipliers and force sums, and the pairs of particles they join ``joined_p``.
 
     Raises:
-      ValueError: a clamped junction (the particle solvers join particles, not tangents)."""
+      ValueError: a clamped junction without ``frames`` (the point chains join particles, not tangents; a rod with
+        frames welds them, :func:`_rod_arrays`)."""
     slices = scene.cable_slices
     n = scene.n_particles - 1
     seg_cable = np.full(n, -1, dtype=np.int64)
@@ -186,9 +187,9 @@ def topology(scene: Scene) -> dict:
         seg_cable[part.start:part.stop - 1] = c
         chain_seg[c] = part.start, part.stop - 1
     for j, junction in enumerate(scene.junctions):
-        if junction.clamp:
+        if junction.clamp and not frames:
             raise ValueError(f"junctions[{j}]: the particle solvers join two particles at one point (a ball joint), "
-                             f"got clamp=True, which they can't hold yet; use clamp=False")
+                             f"got clamp=True, which they can't hold yet; use clamp=False, or model 'cosserat'")
     junction_p = np.array([scene.junction_particles(j) for j in range(len(scene.junctions))],
                           dtype=np.int64).reshape(-1, 2)
     return dict(seg_cable=seg_cable, chain_seg=chain_seg,
@@ -220,7 +221,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
       dt: the simulator's step in seconds; the substep is ``h = dt / settings.substeps``.
     """
     cable = shared_cable(scene, ("radius", "segment_length", "damping"))
-    topo = topology(scene)
+    topo = topology(scene, frames=rules.rod_compliance is not None)
     link = topo["seg_cable"] >= 0
     n_particles = scene.n_particles
     h = dt / settings.substeps
@@ -377,6 +378,10 @@ def _rod_arrays(scene: Scene, clamps: list) -> dict:
     q = start_frames(cable.particles)
     if cable.section_axis is not None:  # the section's d₁ turned about d₃ onto the given axis, the same turn for all
         q = quat_mul(q, _about_d3(q[0], np.asarray(cable.section_axis), cable.particles[1] - cable.particles[0]))
+    untwisted = q
+    if cable.start_twist != 0.0:  # segment i turned about d₃ by Φ (i + ½) / n: a uniform elastic twist
+        half = 0.5 * cable.start_twist * (np.arange(n) + 0.5) / n
+        q = quat_mul(q, np.stack([np.cos(half), 0.0 * half, 0.0 * half, np.sin(half)], axis=1))
     m = cable.mass / n
     i1, i2 = cable.second_moments
     inertia = np.tile([m * i1 / cable.area, m * i2 / cable.area, m * (i1 + i2) / cable.area], (n, 1))
@@ -390,11 +395,34 @@ def _rod_arrays(scene: Scene, clamps: list) -> dict:
             ends[0 if p == 0 else 1] = row
     seg = np.array([min(scene.pin_particle(k), n - 1) for k in clamps], dtype=np.int64)
     rest = cable.rest_shape
-    omega0 = darboux(q, cable.segment_length) if rest == "start" else np.zeros((max(n - 1, 0), 3))
+    omega0 = darboux(untwisted, cable.segment_length) if rest == "start" else np.zeros((max(n - 1, 0), 3))
     rows = 6 * n + 3
     return dict(q=q, q0=q.copy(), omega=np.zeros((n, 3)), inertia=inertia, wq=1.0 / inertia, darboux0=omega0,
                 lam_ss=np.zeros((n, 3)), lam_bt=np.zeros((max(n - 1, 0), 3)), lam_end=np.zeros((2, 3)),
                 clamp_seg=seg, clamp_q=q[seg].copy(), clamp_qfrom=q[seg].copy(), clamp_qto=q[seg].copy(),
                 clamp_react=np.zeros((len(clamps), 3)), clamp_wq=np.zeros((len(clamps), 3, 3)), end_clamp=ends,
                 cs_jac=np.zeros((4 * n + 4, 3, 3)),
-                cs_band=np.zeros((rows, 9)), cs_rhs=np.zeros(rows), cs_db=np.zeros((n, 3)))
+                cs_band=np.zeros((rows, 9)), cs_rhs=np.zeros(rows), cs_db=np.zeros((n, 3)), **_welds(scene, q))
+
+
+def _welds(scene: Scene, q: np.ndarray) -> dict:
+    """The weld fields of ``scene``'s clamped junctions for start frames ``q`` (n, 4): each welds the frames of the
+    segments at its two particles, which must be cable ends (a loop: the cable's last segment and its first), at
+    their start turn r₀ = q̄_a ⊗ q_b (:mod:`mjcable.solvers.cosserat_weld_kernels`).
+
+    Raises:
+      ValueError: a clamped junction at an interior particle, or at the two ends of a one-segment cable."""
+    n = len(q)
+    welds = []
+    for j, junction in enumerate(scene.junctions):
+        if not junction.clamp:
+            continue
+        ends = scene.junction_particles(j)
+        segs = [min(p, n - 1) for p in ends]
+        if not all(p in (0, n) for p in ends) or segs[0] == segs[1]:
+            raise ValueError(f"junctions[{j}]: model 'cosserat' clamps a junction of cable ends (particles 0 and {n}"
+                             f", of distinct segments), got particles {ends}; drop clamp=True or join the ends")
+        welds.append(segs)
+    seg = np.array(welds, dtype=np.int64).reshape(-1, 2)
+    r0 = quat_mul(q[seg[:, 0]] * np.array([1.0, -1.0, -1.0, -1.0]), q[seg[:, 1]])
+    return dict(weld_seg=seg, weld_r0=r0.reshape(-1, 4), lam_weld=np.zeros((len(seg), 3)))
