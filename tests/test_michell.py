@@ -16,7 +16,8 @@ near the threshold mode 2 grows at σ with σ² = c Ω² (Tw² / Tw_c² − 1), 
 ring's mode-2 frequency, ω² = Ω² m² (m² − 1)² / (m² + B / C) = 6.5 Ω², fixes the scale). With c ≥ 2, at 1.2 × the
 threshold σ ≥ Ω √(2 · 0.44) = 26 /s here, so a perturbation of 1e-4 R grows past 0.1 R (a factor 1000, half of the
 start's perturbation in the growing mode) within (ln 1000 + ln 2) / σ ≤ 0.29 s: the ring runs 0.35 s. The rates
-measured (docs/measurements.md) give c = 3.7 and put the model's threshold at 0.98–0.99 × Tw_c.
+measured (docs/measurements.md) give c = 3.3–3.7 and put the model's threshold at 0.98–0.985 × Tw_c (32 to 128
+segments).
 
 Undamped (damping = 0: nothing here changes the equilibria), 64 segments, the direct order.
 """

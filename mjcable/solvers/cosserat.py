@@ -24,6 +24,13 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
   a gripper's frame turns with :meth:`mjcable.Simulator.move_gripper`'s ``orientation``; a clamp's torque
   (:attr:`mjcable.Simulator.pin_torques`) is the torque its frame receives, −Σ R ∇_b Cᵀ λ / h², axial torque
   included;
+* the start frames carry ``CableSpec.start_twist`` (segment i turned about d₃ by Φ (i + ½) / n) while the rest
+  Darboux vectors stay untwisted: Φ is elastic twist;
+* a junction makes two particles one point as in ``xpbd``; a clamped one, of two cable ends (a loop: the cable's own),
+  also welds the frames of the segments at it at their start turn (hard), so that a closed ring keeps the twist its
+  start frames carry. In the direct order the welds and junctions are solved with the rod's band through its Schur
+  complement (a loop's closing rows are not banded), in the Gauss-Seidel order after each sweep
+  (:mod:`mjcable.solvers.cosserat_weld_kernels`);
 * pins, contacts and friction act on the particles as in ``xpbd``.
 """
 

@@ -8,10 +8,19 @@ Weld k between frames a and b (``weld_seg[k]``) is the hard vector constraint ([
 its rest turn r₀ = ``weld_r0[k]`` = q̄_a ⊗ q_b of the start frames taken out on the right, so that r₀ may be any turn):
 C = (2 / l₀) Im(q̄_a ⊗ q_b ⊗ r̄₀) (w ≥ 0), α = 0. With q′_b = q_b ⊗ r̄₀, a turn δb of frame b in its body is a turn
 R(r₀) δb of q′_b in its own, so that ∇_{b_a}C and ∇_{b′}C are :func:`mjcable.solvers.cosserat_kernels._relative`'s
-for (q_a, q′_b) and ∇_{b_b}C = ∇_{b′}C R(r₀). Each iteration projects every weld once ([M16] Eq. 18 with α̃ = 0,
-one 3 × 3 block), Gauss-Seidel, after the rod's own rows: in the direct order the rod's rows stay one banded solve (a
-loop's closing rows would break the band, [D18] §4: a tree has no fill-in, a loop has), and the welds follow it as the
-junctions follow the chains.
+for (q_a, q′_b) and ∇_{b_b}C = ∇_{b′}C R(r₀).
+
+In the direct order (:func:`rod_direct_closed`) the welds and the junctions (C = x_b − x_a, α = 0, ∇ = ∓I on the
+particles) join the rod's solve: a loop's closing rows would break the band ([D18] §4: a tree's elimination has no
+fill-in, a loop's has), so they are eliminated through the band's Schur complement. With A_b the banded block (its
+LDLᵀ factored once), C_e the extra rows' blocks of J W Jᵀ against the band's rows and A_e among themselves, the solve
+takes Y = A_b⁻¹ C_eᵀ (one back-substitution per extra row), (A_e − C_e Y) Δλ_e = r_e − C_e A_b⁻¹ r_b (a small
+Cholesky solve), and Δλ_b = A_b⁻¹ r_b − Y Δλ_e: the same Newton step as one solve of the whole system. Solved apart,
+Gauss-Seidel after the band, the band's solve treats the loop's end segments as free ends every iteration and the weld
+turns them back, which sheared them by tenths of a radian (``docs/measurements.md``). In the Gauss-Seidel order, and
+for a limp rod (whose direct solve has no frame rows), :func:`weld_sweep` projects every weld once per iteration ([M16]
+Eq. 18 with α̃ = 0, one 3 × 3 block) after the rod's sweep, and the junctions follow in
+:mod:`mjcable.solvers.junction_kernels` (in the direct order too, where they then find little left to do).
 
 References: [KS16], [M16], [D18] in :mod:`mjcable.solvers.cosserat_kernels` and :mod:`mjcable.solvers.kernels`.
 """
