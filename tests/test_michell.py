@@ -29,8 +29,9 @@ import numpy as np
 import pytest
 
 import mjcable
-from mjcable import CableSpec, Junction, Scene
+from mjcable import CableSpec, Junction, Pin, Scene
 from mjcable.scene import POISSON
+from mjcable.solvers.state import quat_mul, start_frames
 
 R, N, RADIUS, MASS, YOUNG = 0.1, 64, 0.002, 0.01, 1e8
 EPS = 1e-4  # the start's out-of-plane perturbation, mode 2, in units of R
@@ -85,7 +86,23 @@ def test_untwisted_ring_keeps_its_circle():
     np.testing.assert_allclose(radii, sim.scene.cable.segment_length / (2.0 * math.sin(math.pi / N)), rtol=1e-6)
 
 
-def test_twist_and_clamped_junctions_are_refused_where_they_cannot_hold():
+def test_start_twist_of_a_rod_clamped_at_both_ends_is_elastic_and_uniform():
+    """A straight rod, both ends clamped, its start frames twisted by Φ: at rest from the start, with the end torques
+    C Φ / L of a rod twisted by Φ (Saint-Venant) and every segment turned by Φ s / L at its centre. Models without a
+    twisted start refuse Φ ≠ 0, and the point chains a clamped junction."""
+    phi, length = 1.5, 1.0
+    cable = CableSpec([[0, 0, 0.5], [length, 0, 0.5]], 50, 0.005, 0.05, young=1e8, start_twist=phi)
+    sim = mjcable.Simulator(Scene(cable, pins=(Pin(0, clamp=True), Pin(-1, "gripper", clamp=True)),
+                                  world=mujoco.MjSpec.from_string(ZERO_G)), "cosserat")
+    sim.step(0.1)
+    torque = cable.torsion_stiffness * phi / length
+    assert sim.pin_torques[1, 0] == pytest.approx(torque, rel=0.01)
+    assert -sim.pin_torques[0, 0] == pytest.approx(torque, rel=0.01)
+    assert np.abs(sim.velocities).max() < 1e-6
+    turned = quat_mul(sim.frames, start_frames(cable.particles) * [1, -1, -1, -1])
+    angle = np.unwrap(2 * np.arctan2(turned[:, 1], turned[:, 0]))
+    np.testing.assert_allclose(angle, phi * (np.arange(50) + 0.5) / 50, rtol=0.0, atol=1e-4)
+    # models without a twisted start, and point chains' clamped junctions, are refused
     with pytest.raises(ValueError, match="start_twist"):
         mjcable.Simulator(_ring(1.0), "xpbd")
     straight = CableSpec([[0, 0, 1], [1, 0, 1]], 10, RADIUS, MASS, young=YOUNG)
@@ -93,3 +110,4 @@ def test_twist_and_clamped_junctions_are_refused_where_they_cannot_hold():
     mid = Scene((straight, other), junctions=(Junction((0, -1), (1, 0), clamp=True),))
     with pytest.raises(ValueError, match="clamp=True"):
         mjcable.Simulator(mid, "xpbd")
+

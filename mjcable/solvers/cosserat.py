@@ -25,7 +25,7 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
   (:attr:`mjcable.Simulator.pin_torques`) is the torque its frame receives, −Σ R ∇_b Cᵀ λ / h², axial torque
   included;
 * the start frames carry ``CableSpec.start_twist`` (segment i turned about d₃ by Φ (i + ½) / n) while the rest
-  Darboux vectors stay untwisted: Φ is elastic twist;
+  Darboux vectors stay untwisted: Φ is elastic twist (a clamp's frame starts at its particle's share, 0 or Φ);
 * a junction makes two particles one point as in ``xpbd``; a clamped one, of two cable ends (a loop: the cable's own),
   also welds the frames of the segments at it at their start turn (hard), so that a closed ring keeps the twist its
   start frames carry. In the direct order the welds and junctions are solved with the rod's band through its Schur

@@ -394,12 +394,16 @@ def _rod_arrays(scene: Scene, clamps: list) -> dict:
         if ends[0 if p == 0 else 1] < 0:
             ends[0 if p == 0 else 1] = row
     seg = np.array([min(scene.pin_particle(k), n - 1) for k in clamps], dtype=np.int64)
+    # a clamp holds its segment's frame, turned back to its particle's share of the start twist (0 at the start,
+    # Φ at the end: the twist then starts uniform, half a segment from the clamp too)
+    turn = np.array([(-0.25 if scene.pin_particle(k) == 0 else 0.25) * cable.start_twist / n for k in clamps])
+    held = quat_mul(q[seg], np.stack([np.cos(turn), 0.0 * turn, 0.0 * turn, np.sin(turn)], axis=1).reshape(-1, 4))
     rest = cable.rest_shape
     omega0 = darboux(untwisted, cable.segment_length) if rest == "start" else np.zeros((max(n - 1, 0), 3))
     rows = 6 * n + 3
     return dict(q=q, q0=q.copy(), omega=np.zeros((n, 3)), inertia=inertia, wq=1.0 / inertia, darboux0=omega0,
                 lam_ss=np.zeros((n, 3)), lam_bt=np.zeros((max(n - 1, 0), 3)), lam_end=np.zeros((2, 3)),
-                clamp_seg=seg, clamp_q=q[seg].copy(), clamp_qfrom=q[seg].copy(), clamp_qto=q[seg].copy(),
+                clamp_seg=seg, clamp_q=held, clamp_qfrom=held.copy(), clamp_qto=held.copy(),
                 clamp_react=np.zeros((len(clamps), 3)), clamp_wq=np.zeros((len(clamps), 3, 3)), end_clamp=ends,
                 cs_jac=np.zeros((4 * n + 4, 3, 3)),
                 cs_band=np.zeros((rows, 9)), cs_rhs=np.zeros(rows), cs_db=np.zeros((n, 3)), **_welds(scene, q))
