@@ -89,7 +89,7 @@ def test_untwisted_ring_keeps_its_circle():
 def test_start_twist_of_a_rod_clamped_at_both_ends_is_elastic_and_uniform():
     """A straight rod, both ends clamped, its start frames twisted by Φ: at rest from the start, with the end torques
     C Φ / L of a rod twisted by Φ (Saint-Venant) and every segment turned by Φ s / L at its centre. Models without a
-    twisted start refuse Φ ≠ 0, and the point chains a clamped junction."""
+    twisted start refuse Φ ≠ 0, the point chains a clamped junction, and ``cosserat`` one outside its direct solve."""
     phi, length = 1.5, 1.0
     cable = CableSpec([[0, 0, 0.5], [length, 0, 0.5]], 50, 0.005, 0.05, young=1e8, start_twist=phi)
     sim = mjcable.Simulator(Scene(cable, pins=(Pin(0, clamp=True), Pin(-1, "gripper", clamp=True)),
@@ -110,4 +110,6 @@ def test_start_twist_of_a_rod_clamped_at_both_ends_is_elastic_and_uniform():
     mid = Scene((straight, other), junctions=(Junction((0, -1), (1, 0), clamp=True),))
     with pytest.raises(ValueError, match="clamp=True"):
         mjcable.Simulator(mid, "xpbd")
+    with pytest.raises(ValueError, match="order='direct'"):  # cosserat welds in its direct solve only
+        mjcable.Simulator(_ring(1.0), "cosserat", order="gauss-seidel")
 

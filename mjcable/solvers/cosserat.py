@@ -28,9 +28,9 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
   Darboux vectors stay untwisted: Φ is elastic twist (a clamp's frame starts at its particle's share, 0 or Φ);
 * a junction makes two particles one point as in ``xpbd``; a clamped one, of two cable ends (a loop: the cable's own),
   also welds the frames of the segments at it at their start turn (hard), so that a closed ring keeps the twist its
-  start frames carry. In the direct order the welds and junctions are solved with the rod's band through its Schur
-  complement (a loop's closing rows are not banded), in the Gauss-Seidel order after each sweep
-  (:mod:`mjcable.solvers.cosserat_weld_kernels`);
+  start frames carry. The welds and junctions are solved with the rod's band through its Schur complement (a loop's
+  closing rows are not banded), so a rod welds in the direct order and with E > 0 only (the Gauss-Seidel order and
+  a limp rod refuse a clamped junction; :mod:`mjcable.solvers.cosserat_weld_kernels`);
 * pins, contacts and friction act on the particles as in ``xpbd``.
 """
 

@@ -38,7 +38,7 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.cosserat_direct_kernels import rod_direct_limp
-from mjcable.solvers.cosserat_weld_kernels import rod_direct_closed, weld_sweep
+from mjcable.solvers.cosserat_weld_kernels import rod_direct_closed
 from mjcable.solvers.cosserat_kernels import (
     _end_on, _linearise_bt, _linearise_end, _linearise_ss, _qmul, _rotate_body, rod_direct, rod_gauss_seidel,
 )
@@ -181,16 +181,13 @@ def _newton(S, h2):
 
 @_inline
 def rod_iterate(S):
-    """One iteration of the rod's constraints in the configured order (the safeguarded direct solve, or a
-    Gauss-Seidel sweep), then its welds (a loop's closing rows, Gauss-Seidel in either order:
-    :mod:`mjcable.solvers.cosserat_weld_kernels`)."""
+    """One iteration of the rod's constraints in the configured order (the safeguarded direct solve, with the
+    welds and junctions where it has them, or a Gauss-Seidel sweep)."""
     P = S.par[0]
     if P.order == ORDER_DIRECT:
         rod_direct_safeguarded(S, P.h * P.h)
     else:
         rod_gauss_seidel(S, P.h * P.h)
-    if S.weld_seg.shape[0] and (P.order != ORDER_DIRECT or P.rod_limp):  # (else in the direct solve)
-        weld_sweep(S, P.h * P.h)
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -17,10 +17,11 @@ LDLᵀ factored once), C_e the extra rows' blocks of J W Jᵀ against the band's
 takes Y = A_b⁻¹ C_eᵀ (one back-substitution per extra row), (A_e − C_e Y) Δλ_e = r_e − C_e A_b⁻¹ r_b (a small
 Cholesky solve), and Δλ_b = A_b⁻¹ r_b − Y Δλ_e: the same Newton step as one solve of the whole system. Solved apart,
 Gauss-Seidel after the band, the band's solve treats the loop's end segments as free ends every iteration and the weld
-turns them back, which sheared them by tenths of a radian (``docs/measurements.md``). In the Gauss-Seidel order, and
-for a limp rod (whose direct solve has no frame rows), :func:`weld_sweep` projects every weld once per iteration ([M16]
-Eq. 18 with α̃ = 0, one 3 × 3 block) after the rod's sweep, and the junctions follow in
-:mod:`mjcable.solvers.junction_kernels` (in the direct order too, where they then find little left to do).
+turns them back, which sheared them by tenths of a radian (``docs/measurements.md``). So a rod welds only in the
+direct order and with bend–twist rows (E > 0): the Gauss-Seidel order and a limp rod's direct solve, which have no
+such solve, refuse a clamped junction (:func:`mjcable.solvers.state.chain_arrays`). The junctions' rows are then
+projected once more, Gauss-Seidel, in :mod:`mjcable.solvers.junction_kernels` (little is left to do), as in the
+other orders and models.
 
 References: [KS16], [M16], [D18] in :mod:`mjcable.solvers.cosserat_kernels` and :mod:`mjcable.solvers.kernels`.
 """
@@ -34,51 +35,27 @@ import numpy as np
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.cosserat_direct_kernels import block_ldlt_factor, block_ldlt_substitute
 from mjcable.solvers.cosserat_kernels import (
-    _REGULARIZATION, _assemble, _block, _block_update, _end_on, _frame_push, _qmul, _relative, _rotation, direct_commit,
+    _REGULARIZATION, _assemble, _end_on, _frame_push, _qmul, _relative, _rotation, direct_commit,
     direct_rows,
 )
 
-__all__ = ["weld_sweep", "rod_direct_closed"]
+__all__ = ["rod_direct_closed"]
 
 
 @_jit
-def weld_sweep(S, h2):
-    """Project every weld once (module docstring; ``h2`` = h², s², unused: the welds are hard)."""
-    inv_l0 = math.sqrt(S.par[0].inv_l0sq)
-    seg, r0, lam, q, wq = S.weld_seg, S.weld_r0, S.lam_weld, S.q, S.wq
-    jac = np.empty((3, 3, 3))  # ∇_{b_a}C, ∇_{b′}C, ∇_{b_b}C
-    qb = np.empty((1, 4))
-    R = np.empty((3, 3))
-    M = np.empty((3, 3))
-    for k in range(seg.shape[0]):
-        a, b = seg[k, 0], seg[k, 1]
-        qb[0, 0], qb[0, 1], qb[0, 2], qb[0, 3] = _qmul(q[b, 0], q[b, 1], q[b, 2], q[b, 3],
-                                                       r0[k, 0], -r0[k, 1], -r0[k, 2], -r0[k, 3])
-        c0, c1, c2 = _relative(q, a, qb, 0, jac[0], jac[1], inv_l0)
-        _rotation(r0, k, R)
-        for i in range(3):
-            for j in range(3):
-                jac[2, i, j] = jac[1, i, 0] * R[0, j] + jac[1, i, 1] * R[1, j] + jac[1, i, 2] * R[2, j]
-        M[:, :] = 0.0
-        _block(M, jac, 0, wq, a, 0)
-        _block(M, jac, 2, wq, b, 2)
-        d0, d1, d2 = _block_update(M, 0.0, 0.0, 0.0, lam, k, c0, c1, c2)
-        _frame_push(S, a, jac[0], d0, d1, d2, S.cs_db, True)
-        _frame_push(S, b, jac[2], d0, d1, d2, S.cs_db, True)
-
-
-@_inline
-def _weld_jac(S, k, wjac, qb, R, inv_l0):
-    """Weld k's C (3 scalars) and its Jacobian blocks into wjac[k, 0] (∇_{b_a}C) and wjac[k, 1] (∇_{b_b}C)."""
+def _weld_jac(S, k, wjac, qb, R, inv_l0, slot):
+    """Weld k's C (3 scalars) and its Jacobian blocks into wjac[slot, 0] (∇_{b_a}C) and wjac[slot, 1] (∇_{b_b}C;
+    wjac[slot, 2] is scratch)."""
     q, r0 = S.q, S.weld_r0
     b = S.weld_seg[k, 1]
     qb[0, 0], qb[0, 1], qb[0, 2], qb[0, 3] = _qmul(q[b, 0], q[b, 1], q[b, 2], q[b, 3],
                                                    r0[k, 0], -r0[k, 1], -r0[k, 2], -r0[k, 3])
-    c0, c1, c2 = _relative(q, S.weld_seg[k, 0], qb, 0, wjac[k, 0], wjac[k, 2], inv_l0)
+    c0, c1, c2 = _relative(q, S.weld_seg[k, 0], qb, 0, wjac[slot, 0], wjac[slot, 2], inv_l0)
     _rotation(r0, k, R)
     for i in range(3):
         for j in range(3):
-            wjac[k, 1, i, j] = wjac[k, 2, i, 0] * R[0, j] + wjac[k, 2, i, 1] * R[1, j] + wjac[k, 2, i, 2] * R[2, j]
+            wjac[slot, 1, i, j] = (wjac[slot, 2, i, 0] * R[0, j] + wjac[slot, 2, i, 1] * R[1, j]
+                                   + wjac[slot, 2, i, 2] * R[2, j])
     return c0, c1, c2
 
 
@@ -145,10 +122,10 @@ def rod_direct_closed(S, h2):
     A = np.zeros((K, K))  # among themselves
     r = np.zeros(K)
     wjac = np.empty((max(nw, 1), 3, 3, 3))
-    qb, R, M = np.empty((1, 4)), np.empty((3, 3)), np.empty((3, 3))
+    qb, R = np.empty((1, 4)), np.empty((3, 3))
     rows, blocks = np.empty(4, dtype=np.int64), np.empty(4, dtype=np.int64)
     for k in range(nw):
-        c0, c1, c2 = _weld_jac(S, k, wjac, qb, R, inv_l0)
+        c0, c1, c2 = _weld_jac(S, k, wjac, qb, R, inv_l0, k)
         r[3 * k], r[3 * k + 1], r[3 * k + 2] = -c0, -c1, -c2
         for side in range(2):
             f = S.weld_seg[k, side]
@@ -194,13 +171,15 @@ def rod_direct_closed(S, h2):
     Y = C.copy()
     for a in range(K):
         block_ldlt_substitute(band, Y[a])
-    for a in range(K):  # the Schur complement A − C A_b⁻¹ Cᵀ and its right-hand side r − C A_b⁻¹ rhs
-        r[a] -= np.dot(C[a], rhs)
-        for b in range(K):
-            A[a, b] -= np.dot(C[a], Y[b])
+    for i in range(nb):  # the Schur complement A − C A_b⁻¹ Cᵀ and its right-hand side r − C A_b⁻¹ rhs
+        for a in range(K):
+            r[a] -= C[a, i] * rhs[i]
+            for b in range(K):
+                A[a, b] -= C[a, i] * Y[b, i]
     y = _cholesky_solve(A, r)
-    for a in range(K):
-        rhs -= y[a] * Y[a]
+    for i in range(nb):
+        for a in range(K):
+            rhs[i] -= y[a] * Y[a, i]
     direct_rows(S)
     for k in range(nw):
         d0, d1, d2 = y[3 * k], y[3 * k + 1], y[3 * k + 2]

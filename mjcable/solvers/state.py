@@ -305,7 +305,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
             a[name] = np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype)))
     a["start_from"], a["start_to"], a["target"] = (np.zeros((n_pins, 3)) for _ in range(3))
     if rules.rod_compliance is not None:
-        a.update(_rod_arrays(scene, clamps))
+        a.update(_rod_arrays(scene, clamps, welds=settings.order == "direct" and not rules.rod_limp))
         for name, value in zip(("ss_alpha1", "ss_alpha2", "ss_alpha3", "bt_alpha1", "bt_alpha2", "bt_alpha3"),
                                rules.rod_compliance):
             P[name] = value
@@ -365,14 +365,15 @@ def darboux(frames: np.ndarray, segment_length: float) -> np.ndarray:
     return 2.0 / segment_length * r[:, 1:]
 
 
-def _rod_arrays(scene: Scene, clamps: list) -> dict:
+def _rod_arrays(scene: Scene, clamps: list, *, welds: bool) -> dict:
     """The frame fields of a Cosserat rod (:data:`~mjcable.solvers.kernels_layout.FIELDS`, "material frames") for
     ``scene``'s start curve: frames without twist, at rest; the rest Darboux vectors zero (``rest_shape="straight"``)
     or the start curve's (``"start"``); each segment's rotational inertia that of its slice of the rod, ρ l₀ (I, I, J)
     = m (r²/4, r²/4, r²/2); a clamp's frame starts as its segment's.
 
     Raises:
-      ValueError: a clamp at an interior particle (a clamped frame is a constraint at the rod's start or end)."""
+      ValueError: a clamp at an interior particle (a clamped frame is a constraint at the rod's start or end), or a
+        clamped junction without ``welds`` (:func:`_welds`)."""
     cable = scene.cable
     n = cable.n_segments
     q = start_frames(cable.particles)
@@ -406,21 +407,26 @@ def _rod_arrays(scene: Scene, clamps: list) -> dict:
                 clamp_seg=seg, clamp_q=held, clamp_qfrom=held.copy(), clamp_qto=held.copy(),
                 clamp_react=np.zeros((len(clamps), 3)), clamp_wq=np.zeros((len(clamps), 3, 3)), end_clamp=ends,
                 cs_jac=np.zeros((4 * n + 4, 3, 3)),
-                cs_band=np.zeros((rows, 9)), cs_rhs=np.zeros(rows), cs_db=np.zeros((n, 3)), **_welds(scene, q))
+                cs_band=np.zeros((rows, 9)), cs_rhs=np.zeros(rows), cs_db=np.zeros((n, 3)), **_welds(scene, q, welds))
 
 
-def _welds(scene: Scene, q: np.ndarray) -> dict:
+def _welds(scene: Scene, q: np.ndarray, able: bool) -> dict:
     """The weld fields of ``scene``'s clamped junctions for start frames ``q`` (n, 4): each welds the frames of the
     segments at its two particles, which must be cable ends (a loop: the cable's last segment and its first), at
-    their start turn r₀ = q̄_a ⊗ q_b (:mod:`mjcable.solvers.cosserat_weld_kernels`).
+    their start turn r₀ = q̄_a ⊗ q_b (:mod:`mjcable.solvers.cosserat_weld_kernels`, in the direct solve: ``able``).
 
     Raises:
-      ValueError: a clamped junction at an interior particle, or at the two ends of a one-segment cable."""
+      ValueError: a clamped junction where the rod can't weld (not ``able``: the Gauss-Seidel order, or a limp rod),
+        at an interior particle, or at the two ends of a one-segment cable."""
     n = len(q)
     welds = []
     for j, junction in enumerate(scene.junctions):
         if not junction.clamp:
             continue
+        if not able:
+            raise ValueError(f"junctions[{j}]: model 'cosserat' welds a clamped junction's frames in its direct solve "
+                             f"only (order='direct', a cable with young > 0), got order='gauss-seidel' or a limp "
+                             f"cable; use order='direct' and young > 0, or clamp=False")
         ends = scene.junction_particles(j)
         segs = [min(p, n - 1) for p in ends]
         if not all(p in (0, n) for p in ends) or segs[0] == segs[1]:
