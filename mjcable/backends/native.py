@@ -29,7 +29,7 @@ from mjcable import monitor
 from mjcable.backends.grasp import NativeGrasps
 from mjcable.backends.native_energy import CableEnergy
 from mjcable.backends.protocol import Energy, RunResult
-from mjcable.mjcf import cables, data, grasp, joints, world
+from mjcable.mjcf import cables, data, grasp, joints, rings, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
@@ -67,8 +67,11 @@ def spec_builder(generate: Callable[..., mujoco.MjSpec], *,
                 made = generate(scene, **options)
             if scene.grippers:
                 grasp.add_free_grippers(made, scene, timestep=options["timestep"])
+            if scene.rings:
+                rings.add_rings(made, scene, timestep=options["timestep"])
             spec = world.finish(made, scene)
-        if not scene.obstacles and scene.world is None and not settings.self_collision and len(scene.cables) == 1:
+        if (not scene.obstacles and not scene.rings and scene.world is None and not settings.self_collision
+                and len(scene.cables) == 1):
             spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
         return spec
 
