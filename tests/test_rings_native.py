@@ -158,3 +158,57 @@ def test_friction_in_a_ring_holds_below_the_capstan_law_and_slides_above(model):
     assert abs(held) < HOLD_SPEED
     _, sliding = capstan_run(model, 1.15)
     assert sliding > 0.1 * G * (1.15 * e - e) / (1.15 * e + e)
+
+
+# ------------------------------------------------------------------------------------------------ the ring's build
+
+
+def _segment_distances(points, a, b):
+    """Distances (m,) from the points (m, 3) to the segment a-b."""
+    ab = b - a
+    t = np.clip((points - a) @ ab / (ab @ ab), 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[:, None] * ab), axis=1)
+
+
+def test_a_ring_is_a_polygon_of_capsules_whose_narrowest_hole_has_the_rings_radius():
+    scene = atwood(radius=0.005)
+    m = mujoco.MjSpec.compile(catalog.build(scene, "joints"))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    centre, axis = np.array([0.0, 0.0, RING_HEIGHT]), np.array([1.0, 0.0, 0.0])
+    gaps = []
+    for j in range(rings.SIDES):
+        geom = m.geom(rings.ring_geom(0, j))
+        assert geom.type[0] == mujoco.mjtGeom.mjGEOM_CAPSULE and geom.size[0] == pytest.approx(rings.rim_radius(scene, 0))
+        half = d.geom_xmat[geom.id].reshape(3, 3)[:, 2] * geom.size[1]
+        a, b = d.geom_xpos[geom.id] - half, d.geom_xpos[geom.id] + half
+        assert abs((a - centre) @ axis) < 1e-12 and abs((b - centre) @ axis) < 1e-12  # in the ring's plane
+        gaps.append(_segment_distances(centre[None], a, b)[0] - geom.size[0])
+    assert min(gaps) == pytest.approx(0.005, rel=1e-9)
+    lowest = m.geom(rings.ring_geom(0, 0)).id  # side 0's middle where gravity pulls: straight below the centre
+    assert d.geom_xpos[lowest] == pytest.approx(centre - [0.0, 0.0, 0.005 + rings.rim_radius(scene, 0)], abs=1e-12)
+
+
+@pytest.mark.parametrize("mu, condim", [(MU, 3), (0.0, 1)])
+def test_the_rings_contacts_touch_only_the_cable_with_the_rings_friction(mu, condim):
+    """MuJoCo takes the higher-priority geom's friction: a contact between the ring and the cable has μ = the
+    ring's (a frictionless ring's contacts are normal forces alone, condim 1)."""
+    sim = Simulator(atwood(mu=mu), "joints", dt=0.002, **SETTINGS["joints"])
+    sim.step(0.02)
+    m, d = sim.mj_model, sim.mj_data
+    ring = {m.geom(rings.ring_geom(0, j)).id for j in range(rings.SIDES)}
+    cable = {i for i in range(m.ngeom) if m.body(m.geom_bodyid[i]).name.startswith("cable")}
+    touching = [c for c in d.contact[:d.ncon] if {c.geom1, c.geom2} & ring]
+    assert touching
+    for c in touching:
+        assert {c.geom1, c.geom2} - ring <= cable
+        assert c.dim == condim and (condim == 1 or c.friction[0] == pytest.approx(mu, abs=0.0))
+
+
+def test_a_model_without_rings_says_so():
+    catalog.register(dataclasses.replace(catalog.get("joints"), name="noring", rings=False))
+    try:
+        with pytest.raises(ValueError, match=r"noring: rings \(1\) in scene 'ring_atwood': model 'noring' does "):
+            catalog.check_scene(atwood(), "noring")
+    finally:
+        catalog.unregister("noring")

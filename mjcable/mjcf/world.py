@@ -182,8 +182,8 @@ def user_names(scene: Scene):
         if scene.world is None or "repeated name" not in str(error):
             raise
         raise ValueError(f"world: the cable needs an element your world already has ({error}); mjcable names "
-                         f"its elements cable*, particle*, segment*, anchor*, gripper*, grasp*, pin*, obstacle*, spring*, ring*, "
-                         f"{CAMERA!r} and {START_KEY!r}: rename yours") from None
+                         f"its elements cable*, particle*, segment*, anchor*, gripper*, grasp*, pin*, obstacle*, spring*, "
+                         f"ring*, {CAMERA!r} and {START_KEY!r}: rename yours") from None
 
 
 def finish(spec: mujoco.MjSpec, scene: Scene) -> mujoco.MjSpec:
