@@ -32,15 +32,17 @@ ARC_POINTS = 13
 START_CLEARANCE = 2e-4  # m between the rim and the start arc's chords
 WINDOW = (0.15, 0.45)  # s: the acceleration's fit, after the rope settles on the rim
 HEAVY, LIGHT = "heavy_box", "light_box"
+HANGER_MASS = 0.1  # kg, the body that carries the ring in the two-way test
 SETTINGS = {"springs": {}, "joints": dict(substeps=2), "composite": dict(substeps=2),  # stable under the
             "flexrod": dict(substeps=12)}  # boxes' start (flexrod: its own stable_substeps)
 
 
-def atwood(masses=(2.0, 1.0), *, mu=0.0, n_segments=80, radius=None):
+def atwood(masses=(2.0, 1.0), *, mu=0.0, n_segments=80, radius=None, hanger=None):
     """Two free boxes on a rope through a ring (axis x) at :data:`RING_HEIGHT`: the rope starts on a half circle
     around the ring's lowest rim (a post of radius ρ along y) whose chords' middles are :data:`START_CLEARANCE`
     clear of it, with vertical legs down to the boxes' top faces (body pins: the first particle holds m₁ on the
-    left, −x)."""
+    left, −x). ``hanger``: N/m, the ring is on a body of :data:`HANGER_MASS` on a vertical slide joint of that
+    stiffness (undeflected at the start), damped."""
     hole = 2.0 * ROPE_RADIUS if radius is None else radius
     rim = _rim(n_segments)
     post = RING_HEIGHT - hole - rim  # the lowest rim's axis (z), by design a capsule's middle
@@ -65,7 +67,15 @@ def atwood(masses=(2.0, 1.0), *, mu=0.0, n_segments=80, radius=None):
     cable = CableSpec(points, n_segments, ROPE_RADIUS, ROPE_DENSITY * length)
     pins = (Pin(0, "body", body=HEAVY, offset=(0.0, 0.0, BOX_HALF)),
             Pin(-1, "body", body=LIGHT, offset=(0.0, 0.0, BOX_HALF)))
-    ring = Ring((0.0, 0.0, RING_HEIGHT), (1.0, 0.0, 0.0), radius=radius, friction=mu)
+    centre = (0.0, 0.0, RING_HEIGHT)
+    if hanger is not None:
+        body = spec.worldbody.add_body(name="hanger", pos=centre)
+        body.add_joint(name="hanger", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0], stiffness=hanger,
+                       damping=2.0 * math.sqrt(hanger * sum(masses)))
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0], pos=[0.0, 0.0, 0.05], mass=HANGER_MASS,
+                      contype=0, conaffinity=0)
+        centre = (0.0, 0.0, 0.0)
+    ring = Ring(centre, (1.0, 0.0, 0.0), radius=radius, friction=mu, body=None if hanger is None else "hanger")
     return Scene(cable, pins, world=spec, rings=(ring,), name="ring_atwood")
 
 
@@ -212,3 +222,57 @@ def test_a_model_without_rings_says_so():
             catalog.check_scene(atwood(), "noring")
     finally:
         catalog.unregister("noring")
+
+
+def stop_scene(stop):
+    """A 0.4 m rope hanging from its top end, held by nothing but a ring (axis z) 1 cm below where the stop at
+    its top particle touches the ring, with a box of :data:`STOP_LOAD` on its lower end (a body pin)."""
+    cable = CableSpec([(0.0, 0.0, 0.6), (0.0, 0.0, 1.0)], 40, ROPE_RADIUS, 0.02)
+    ring = Ring((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), stop=stop)
+    hole = ring.hole(ROPE_RADIUS)
+    probe = Scene(cable, rings=(dataclasses.replace(ring, pos=(0.0, 0.0, 0.8)),))
+    rim, ball = rings.rim_radius(probe, 0), rings.STOP_RADII * hole
+    touch = math.sqrt((rim + ball) ** 2 - (rim + hole) ** 2)  # the stop's centre above the ring's, resting on it
+    spec = mujoco.MjSpec()
+    spec.option.gravity = [0.0, 0.0, -G]
+    box = spec.worldbody.add_body(name=HEAVY, pos=[0.0, 0.0, 0.6 - BOX_HALF])
+    box.add_freejoint()
+    box.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[BOX_HALF] * 3, mass=STOP_LOAD, contype=0, conaffinity=0)
+    ring = dataclasses.replace(ring, pos=(0.0, 0.0, 1.0 - touch - 0.01))
+    return Scene(cable, (Pin(0, "body", body=HEAVY, offset=(0.0, 0.0, BOX_HALF)),), world=spec, rings=(ring,),
+                 name="ring_stop")
+
+
+STOP_LOAD = 0.5  # kg
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["joints", pytest.param("composite", marks=pytest.mark.composite), "flexrod"])
+def test_a_ring_on_a_body_carries_the_cable_and_what_hangs_on_it(model):
+    """Two-way: a ring on a body hung from a vertical spring k, with two equal boxes on the rope through it
+    (friction holds the rope's own imbalance), settles where the spring carries the hanger, the boxes and the rope:
+    a deflection of (2 m + m_rope + m_hanger) g / k, within 1 %."""
+    stiffness = 2000.0
+    scene = atwood((1.0, 1.0), mu=MU, hanger=stiffness)
+    sim = Simulator(scene, model, dt=0.002, **SETTINGS[model])
+    sim.step(1.0)
+    deflection = -sim.mj_data.qpos[sim.mj_model.joint("hanger").qposadr[0]]
+    assert deflection == pytest.approx((2.0 + scene.cable.mass + HANGER_MASS) * G / stiffness, rel=0.01)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["joints", pytest.param("composite", marks=pytest.mark.composite), "flexrod"])
+def test_a_stop_holds_the_cable_in_the_ring_and_without_it_the_end_slips_out(model):
+    """A stop on the rope's top particle drops 1 cm onto the ring and rests on its rim (its centre where the sphere
+    of STOP_RADII hole radii touches the tube: geometry), the box at rest; without it the rope falls free."""
+    held = Simulator(stop_scene(-1), model, dt=0.002, **SETTINGS[model])
+    held.step(0.5)
+    ring = held.scene.rings[0]
+    hole, rim = ring.hole(ROPE_RADIUS), rings.rim_radius(held.scene, 0)
+    rest = ring.pos[2] + math.sqrt((rim + rings.STOP_RADII * hole) ** 2 - (rim + hole) ** 2)
+    assert held.positions[-1, 2] == pytest.approx(rest, abs=1e-3)
+    assert abs(held.mj_data.qvel[2]) < 1e-3  # the box's free joint: its vertical speed
+    free = Simulator(stop_scene(None), model, dt=0.002, **SETTINGS[model])
+    free.step(0.5)
+    assert free.positions[-1, 2] < ring.pos[2] - 0.5
+    assert free.mj_data.qvel[2] == pytest.approx(-G * 0.5, rel=0.01)
