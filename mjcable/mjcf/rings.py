@@ -4,7 +4,10 @@ Ring ``k`` is a polygon of :data:`SIDES` capsule geoms ``ring{k}_{j}`` around th
 for a ring on a body (``Ring.body``), in that body of the user's world, so that it moves with the body and feels the
 cable through MuJoCo's contacts (both ways). Its shape:
 
-* the rim (the tube) has the radius ρ = :data:`RIM_RADII` × the threaded cable's radius r;
+* the rim (the tube) has the radius ρ = :data:`RIM_RADII` × the threaded cable's radius r, or more, so that the
+  cable's centreline wraps the rim on a circle (ρ + r) of at least :data:`RIM_SEGMENTS` segments: a chain of straight
+  segments over a tighter rim goes round on a corner or two, bumps what hangs on it at every joint that passes and
+  holds less than the capstan law (``docs/measurements.md``);
 * the hole's radius ``Ring.hole(r)`` is the polygon's narrowest: the distance from the ring's centre to the
   capsules' inner surface at their middles (at the polygon's corners the hole is wider by a factor of about
   1 / cos(π / SIDES), under 2 %);
@@ -16,17 +19,15 @@ Contacts: the capsules collide with the cables' geoms (and a ``flexrod`` flex) a
 ``conaffinity`` :data:`~mjcable.mjcf.world.CABLE_CONTYPE`: not with the body they are on, nor with obstacles or the
 user's geoms), whatever a model excludes between its own bodies. They have a higher ``priority`` than the cable's
 geoms, so that MuJoCo takes the ring's contact parameters for a contact: friction μ = ``Ring.friction`` exactly
-(``condim`` 3; a frictionless ring ``condim`` 1, normal forces alone), and the obstacles' stiff contact time constant
-:data:`~mjcable.mjcf.world.CONTACT_SOLREF_STEPS` physics steps.
+(``condim`` 3; a frictionless ring ``condim`` 1, normal forces alone), the obstacles' stiff contact time constant
+:data:`~mjcable.mjcf.world.CONTACT_SOLREF_STEPS` physics steps, and the pins' impedance
+:data:`~mjcable.mjcf.world.PIN_SOLIMP` (:data:`SOLIMP`): MuJoCo's softness scales with the inverse of a segment's
+mass, and a light rope carrying a load sinks through a rim at the default impedance.
 
 A stop (``Ring.stop``, a particle index): a sphere ``ring{k}_stop`` of :data:`STOP_RADII` × the hole's radius at
 that particle, on the model's body that carries the particle's site (every native model has one per particle or
 segment), that collides with the ring's capsules alone (explicit contact pairs; ``contype`` and ``conaffinity`` 0),
 so the particle cannot pass the hole. Without a stop, a cable end that reaches the ring slips out of it.
-
-The capstan law (a cable turning through θ on the rim holds while its tensions differ by less than e^{μθ}) needs the
-cable to wrap the rim over several segments: its centreline turns on a circle of radius ρ + r, so segments shorter
-than about (ρ + r) π / 4 for a half turn; a coarser chain turns on one or two corners, which hold less.
 """
 
 from __future__ import annotations
@@ -39,14 +40,15 @@ import numpy as np
 from mjcable.mjcf import cables, world
 from mjcable.scene import Scene
 
-__all__ = ["add_rings", "ring_geom", "stop_geom", "rim_radius", "SIDES", "RIM_RADII", "STOP_RADII", "PRIORITY"]
+__all__ = ["add_rings", "ring_geom", "stop_geom", "rim_radius", "SIDES", "RIM_RADII", "RIM_SEGMENTS", "STOP_RADII",
+           "PRIORITY", "SOLIMP"]
 
 SIDES = 16  # capsules in a ring's polygon
-RIM_RADII = 1  # the rim's (tube's) radius ρ, in the threaded cable's radii
+RIM_RADII = 1.0  # the rim's (tube's) radius ρ, in the threaded cable's radii
 RIM_SEGMENTS = 3.0  # the smallest radius the cable's centreline wraps the rim on, in the cable's segments
 STOP_RADII = 1.5  # a stop's sphere radius, in the hole's radii: it cannot pass through
 PRIORITY = 2  # contact priority of a ring's geoms: above the cable's (0) and obstacles' (1); its μ is the one in force
-SOLIMP = world.PIN_SOLIMP
+SOLIMP = world.PIN_SOLIMP  # the ring's contacts' impedance (module docstring)
 _RGBA = (0.55, 0.55, 0.6, 1.0)
 
 
