@@ -68,7 +68,7 @@ class ModelEntry:
       sections: it bends anisotropically (``CableSpec.section`` with unequal semi-axes).
       several_cables: it simulates a scene of several cables (``Scene(cable=(...))``), with contacts between them.
       junctions: it joins cables at ``Scene.junctions`` (and closes loops).
-      rings: it threads cables through ``Scene.rings``.
+      rings: it threads cables through ``Scene.rings`` (sliding, with friction on the rim).
     """
 
     name: str
