@@ -276,3 +276,12 @@ def test_a_stop_holds_the_cable_in_the_ring_and_without_it_the_end_slips_out(mod
     free.step(0.5)
     assert free.positions[-1, 2] < ring.pos[2] - 0.5
     assert free.mj_data.qvel[2] == pytest.approx(-G * 0.5, rel=0.01)
+
+
+def test_a_cable_that_starts_in_the_rim_is_refused():
+    """A coarse cable (its rim wraps three segments of 4 cm) crossing the ring's plane at 45°: its start cuts
+    through the rim's tube."""
+    cable = CableSpec([(-0.3, 0.0, 0.7), (0.3, 0.0, 1.3)], 20, ROPE_RADIUS, 0.02)
+    scene = Scene(cable, rings=(Ring((0.0, 0.0, 1.0), (1.0, 0.0, 0.0)),))
+    with pytest.raises(ValueError, match=r"joints: rings\[0\]: cable 0 starts 0\.\d+ m deep in the ring's rim"):
+        catalog.build(scene, "joints")

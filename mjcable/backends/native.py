@@ -68,7 +68,7 @@ def spec_builder(generate: Callable[..., mujoco.MjSpec], *,
             if scene.grippers:
                 grasp.add_free_grippers(made, scene, timestep=options["timestep"])
             if scene.rings:
-                rings.add_rings(made, scene, timestep=options["timestep"])
+                rings.add_rings(made, scene, model, timestep=options["timestep"])
             spec = world.finish(made, scene)
         if (not scene.obstacles and not scene.rings and scene.world is None and not settings.self_collision
                 and len(scene.cables) == 1):

@@ -37,16 +37,18 @@ import math
 import mujoco
 import numpy as np
 
+from mjcable import geometry
 from mjcable.mjcf import cables, world
 from mjcable.scene import Scene
 
-__all__ = ["add_rings", "ring_geom", "stop_geom", "rim_radius", "SIDES", "RIM_RADII", "RIM_SEGMENTS", "STOP_RADII",
-           "PRIORITY", "SOLIMP"]
+__all__ = ["add_rings", "check_clear", "ring_geom", "stop_geom", "rim_radius", "SIDES", "RIM_RADII", "RIM_SEGMENTS",
+           "STOP_RADII", "START_OVERLAP", "PRIORITY", "SOLIMP"]
 
 SIDES = 16  # capsules in a ring's polygon
 RIM_RADII = 1.0  # the rim's (tube's) radius ρ, in the threaded cable's radii
 RIM_SEGMENTS = 3.0  # the smallest radius the cable's centreline wraps the rim on, in the cable's segments
 STOP_RADII = 1.5  # a stop's sphere radius, in the hole's radii: it cannot pass through
+START_OVERLAP = 0.1  # how deep a cable may start in a rim, in its radii (round-off and a start laid on the rim)
 PRIORITY = 2  # contact priority of a ring's geoms: above the cable's (0) and obstacles' (1); its μ is the one in force
 SOLIMP = world.PIN_SOLIMP  # the ring's contacts' impedance (module docstring)
 _RGBA = (0.55, 0.55, 0.6, 1.0)
@@ -85,10 +87,14 @@ def _polygon(scene: Scene, k: int) -> np.ndarray:
     return centre + corner * (np.cos(angles)[:, None] * down + np.sin(angles)[:, None] * side)
 
 
-def add_rings(spec: mujoco.MjSpec, scene: Scene, *, timestep: float) -> mujoco.MjSpec:
-    """Add ``scene``'s rings (and their stops) to ``spec``, a native model's whole spec (see the module docstring);
-    MuJoCo steps at ``timestep`` seconds. Returns ``spec``."""
+def add_rings(spec: mujoco.MjSpec, scene: Scene, model: str, *, timestep: float) -> mujoco.MjSpec:
+    """Add ``scene``'s rings (and their stops) to ``spec``, model ``model``'s whole spec (see the module docstring);
+    MuJoCo steps at ``timestep`` seconds. Returns ``spec``.
+
+    Raises:
+      ValueError: a cable starts inside a ring's rim (:func:`check_clear`)."""
     for k, ring in enumerate(scene.rings):
+        check_clear(scene, k, model)
         if ring.body is None:
             host, to_host = spec.worldbody, (lambda x: x)
         else:
@@ -105,6 +111,24 @@ def add_rings(spec: mujoco.MjSpec, scene: Scene, *, timestep: float) -> mujoco.M
         if ring.stop is not None:
             _add_stop(spec, scene, k, contact)
     return spec
+
+
+def check_clear(scene: Scene, k: int, model: str) -> None:
+    """Raise unless ring ``k``'s cable starts clear of its rim: the cable's surface no deeper than
+    :data:`START_OVERLAP` cable radii in the rim (MuJoCo would throw it out in the first steps).
+
+    Raises:
+      ValueError: naming the model, the ring, the depth and what gives the rim room."""
+    ring = scene.rings[k]
+    cable = scene.cables[ring.cable]
+    rim = rim_radius(scene, k)
+    depth = rim + cable.radius - float(np.min(geometry.segment_distances(cable.particles, _polygon(scene, k))))
+    if depth > START_OVERLAP * cable.radius:
+        raise ValueError(f"{model}: rings[{k}]: cable {ring.cable} starts {depth:.4g} m deep in the ring's rim (a tube "
+                         f"of radius {rim:.4g} m around a hole of {ring.hole(cable.radius):.4g} m: the native models' "
+                         f"rim wraps the cable on at least {RIM_SEGMENTS:g} segments of {cable.segment_length:.4g} m); "
+                         f"start the cable straighter through the ring, give the ring a larger radius, or the cable "
+                         f"more segments")
 
 
 def _contact(mu: float, timestep: float) -> dict:
