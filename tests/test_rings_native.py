@@ -125,6 +125,7 @@ def atwood_error(model, n_segments=80):
     return fit_parabola(t[inside], drop[inside]) / expected - 1.0
 
 
+@pytest.mark.slow
 def test_the_reference_is_the_textbook_atwood_machine_for_a_light_rope():
     scene = atwood()
     t = np.linspace(0.0, 0.3, 7)
@@ -199,7 +200,7 @@ def test_a_ring_is_a_polygon_of_capsules_whose_narrowest_hole_has_the_rings_radi
     assert d.geom_xpos[lowest] == pytest.approx(centre - [0.0, 0.0, 0.005 + rings.rim_radius(scene, 0)], abs=1e-12)
 
 
-@pytest.mark.parametrize("mu, condim", [(MU, 3), (0.0, 1)])
+@pytest.mark.parametrize("mu, condim", [(MU, 3), pytest.param(0.0, 1, marks=pytest.mark.slow)])
 def test_the_rings_contacts_touch_only_the_cable_with_the_rings_friction(mu, condim):
     """MuJoCo takes the higher-priority geom's friction: a contact between the ring and the cable has μ = the
     ring's (a frictionless ring's contacts are normal forces alone, condim 1)."""
