@@ -332,7 +332,8 @@ class CableTask(base.Task):
     """Base of the cable tasks: gripper-displacement actions, cable observations, a workspace clamp.
 
     Subclasses set ``name`` (the registry key), ``physics_class`` (a :class:`CablePhysics` subclass with the task's
-    read-outs), ``controlled`` (the gripper pins the action moves, in order) and, where their scenes need them, the
+    read-outs), ``controlled`` (the grippers the action moves, in order: gripper pins, free grippers as
+    ``len(scene.pins) + g``) and, where their scenes need them, the
     catalogue capabilities ``requires`` (``("several_cables",)``: loading on another model is a ``ValueError``), implement :meth:`make_scene`,
     :meth:`make_workspace`, :meth:`task_observations` and :meth:`get_reward`, draw their episode's random values from
     ``self.random`` in :meth:`make_scene` / :meth:`sample_episode`, and register with :func:`register`.
