@@ -64,6 +64,7 @@ def test_grip_closes_within_reach_holds_and_lets_go():
         env.step([0.0, 0.0, 0.0, 1.5])
     physics = env.physics
     sim = physics.simulator
+    assert physics.workspace.tethers(0) == ()  # a free gripper: the box and the obstacles only
     time_step = env.step([0.0, 0.0, 0.0, CLOSE])  # closing 20 cm above the cable grasps nothing
     assert sim.grasped == (None,) and time_step.observation["holding"][0] == 0.0
     middle = physics.centreline()[MIDDLE]
