@@ -329,6 +329,7 @@ class Scene:
                                           "Junction instances, e.g. (Junction((0, -1), (1, 0)),)"))
         self._check_junctions()
         joins.check_cables_apart(self)
+        joins.check_winches(self)
         _set(self, "grippers", _sequence("grippers", self.grippers, Gripper,
                                          "Gripper instances, e.g. (Gripper((0.0, 0.0, 1.0)),)"))
         obstacles = _sequence("obstacles", self.obstacles, Obstacle,

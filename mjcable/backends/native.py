@@ -493,6 +493,12 @@ class NativeBackend:
         self._refresh()
         self._added[index] += mass
 
+    def reel(self, k: int, speed: float) -> None:
+        self.free_length(k)
+
+    def free_length(self, k: int) -> float:
+        raise ValueError(f"model {self.name!r} has no winches (catalog.check_scene refuses them)")
+
     def grasp(self, g: int, index: int) -> None:
         self._grasps.grasp(g, index)
 
