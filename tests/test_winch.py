@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import dataclasses
 
+import mujoco
+import numpy as np
 import pytest
 
 from mjcable import Pin, Scene, Simulator, catalog
@@ -120,3 +122,41 @@ def test_a_model_without_winches_refuses_one_naming_itself_and_why(model):
     with pytest.raises(ValueError, match=rf"pins\[0\] is a winch, which model '{model}' can't reel: its segments .*; "
                                          r"use one of \('jakobsen', 'pbd', 'xpbd'\)"):
         Simulator(Scene(_rope(), (Pin(2, "winch"),)), model)
+
+
+def _drum_scene(drum_mass: float, box_mass: float) -> Scene:
+    """In zero gravity, a free drum (a winch on a body) and a free box 1 m apart along x, joined by a light rope
+    (0.4 m more of it on the drum's spool); nothing collides."""
+    spec = mujoco.MjSpec()
+    spec.option.gravity = [0.0, 0.0, 0.0]
+    for name, mass, x in (("drum", drum_mass, -DRUM_HALF), ("box", box_mass, 1.0 + DRUM_HALF)):
+        body = spec.worldbody.add_body(name=name, pos=[x, 0.0, 1.0])
+        body.add_freejoint()
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[DRUM_HALF] * 3, mass=mass, contype=0, conaffinity=0)
+    cable = CableSpec([[-0.4, 0.0, 1.0], [0.0, 0.0, 1.0], [1.0, 0.0, 1.0]], 70, 0.003, 1.4 * LIGHT_ROPE)
+    pins = (Pin(20, "winch", body="drum", offset=(DRUM_HALF, 0.0, 0.0)),
+            Pin(-1, "body", body="box", offset=(-DRUM_HALF, 0.0, 0.0)))
+    return Scene(cable, pins, world=spec, name="drum")
+
+
+DRUM_HALF = 0.05  # m
+LIGHT_ROPE = 1e-3  # kg/m: 1.4 g of rope against 3 kg of bodies
+
+
+@pytest.mark.parametrize("model, settings", [
+    ("xpbd", {}), pytest.param("pbd", {"order": "direct"}, marks=pytest.mark.slow)])
+def test_a_winch_on_a_body_pulls_it_with_the_cable_keeping_the_centre_of_mass(model, settings):
+    """A drum of 2 kg reels in 0.3 m of the rope to a 1 kg box, both free in zero gravity: they approach by 0.3 m
+    (an inextensible rope) with their centre of mass where it was (no outside force), so the drum moves a third of
+    it; at rest again, the winch's pull vanishes."""
+    sim = Simulator(_drum_scene(2.0, 1.0), model, **settings)
+    drum, box = sim.mj_data.body("drum"), sim.mj_data.body("box")
+    start = drum.xpos[0], box.xpos[0]
+    sim.reel(0, -0.1)
+    sim.step(3.0)
+    sim.reel(0, 0.0)
+    sim.step(0.5)
+    assert sim.free_length(0) == pytest.approx(0.7, abs=1e-9)
+    assert box.xpos[0] - drum.xpos[0] == pytest.approx(start[1] - start[0] - 0.3, abs=RISE_TOLERANCE)
+    assert drum.xpos[0] - start[0] == pytest.approx(0.1, abs=RISE_TOLERANCE)
+    assert np.linalg.norm(sim.pin_forces[0]) < 1e-3

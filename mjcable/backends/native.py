@@ -161,7 +161,7 @@ class NativeBackend:
         # (a pin may sit inside its body)
         cable_bodies = np.unique(self._site_body)
         self._cable_geoms = np.isin(m.geom_bodyid, cable_bodies[cable_bodies > 0])
-        held = [_name2id(m, mujoco.mjtObj.mjOBJ_BODY, pin.body) for pin in scene.pins if pin.kind == "body"]
+        held = [_name2id(m, mujoco.mjtObj.mjOBJ_BODY, pin.body) for pin in scene.pins if pin.on_body]
         self._held_geoms = np.isin(m.geom_bodyid, held)
         self._energy = CableEnergy(m, self._sites, scene)
         self.reset()

@@ -56,8 +56,9 @@ def arrays(scene: Scene, a: dict) -> dict:
         out["winch_cable"][row], out["winch_dir"][row] = c, d
         out["winch_end"][row], out["winch_far"][row] = end, far
         links = np.flatnonzero(a["link_pin"] == k)
-        if len(links):
+        if len(links):  # a body winch: the body's inverse mass along the cable, taken clear of the winch point
             out["winch_link"][row] = links[0]
+            a["link_neighbour"][links[0]] = held + 2 * d if held + d != far else held + d
         out["winch_at"][row] = x[held]
         axis = x[held + d] - x[held]
         out["winch_u"][row] = axis / np.linalg.norm(axis)
