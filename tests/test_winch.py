@@ -160,3 +160,15 @@ def test_a_winch_on_a_body_pulls_it_with_the_cable_keeping_the_centre_of_mass(mo
     assert box.xpos[0] - drum.xpos[0] == pytest.approx(start[1] - start[0] - 0.3, abs=RISE_TOLERANCE)
     assert drum.xpos[0] - start[0] == pytest.approx(0.1, abs=RISE_TOLERANCE)
     assert np.linalg.norm(sim.pin_forces[0]) < 1e-3
+
+
+@pytest.mark.slow
+def test_the_bench_measures_the_winch_family():
+    """The bench's ``winch`` and ``winch_pull`` scenarios measure what the must-show does (``xpbd``); a model
+    without winches is ``rejected`` with the reason."""
+    from mjcable.bench import Case, run_case
+
+    rows = [run_case(Case(name, "xpbd", 0.002, quick=True)) for name in ("winch", "winch_pull")]
+    assert [row["outcome"] for row in rows] == ["stable", "stable"]
+    assert rows[0]["error"] < RISE_TOLERANCE and rows[1]["error"] < PULL_TOLERANCE
+    assert run_case(Case("winch", "flexrod", 0.002, quick=True))["outcome"] == "rejected"

@@ -81,7 +81,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
-from mjcable.bench import contact, harness, knot, pulley, twist
+from mjcable.bench import contact, harness, knot, pulley, twist, winch
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -481,6 +481,14 @@ SCENARIOS: Dict[str, Scenario] = {
               ("pulley", "relative error of the heavy box's acceleration against the heavy-rope Atwood machine",
                pulley.acceleration_error),
               ("pulley_slip", "slip: |rim speed / box speed − 1|", pulley.slip_error))),
+        *(Scenario(name, f"{what}; a winch reels a 1 kg box on 1 m of rope (0.5 kg/m) in by 0.3 m at 0.1 m/s and "
+                   "pays it out again", lambda n, p: winch.lift_scene(n), duration=winch.TOTAL,
+                   quick_duration=winch.TOTAL, error_kind=kind, evaluate=evaluate, drive=winch.bench_drive,
+                   passive=False)
+          for name, what, kind, evaluate in (
+              ("winch", "the box's rise against the reeled length, and its return", "m", winch.travel_error),
+              ("winch_pull", "the winch's pull against the weight it holds while reeling, and the rope's mass per "
+               "metre from the pull", "relative", winch.pull_error))),
         Scenario("torsion", "rod clamped at both ends in zero gravity, one end turned by π; relative error of the "
                  "end torque against G·J φ / L (models with material frames)",
                  lambda n, p: twist.twist_scene(n), duration=1.5, quick_duration=1.5, error_kind="relative",

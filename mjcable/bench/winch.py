@@ -33,7 +33,7 @@ from mjcable.scene import CableSpec, Pin, Scene
 from mjcable.simulator import Simulator
 
 __all__ = ["LiftScene", "lift_scene", "speed_at", "Record", "sample", "run_lift", "drive", "from_samples",
-           "Measurement", "measure", "BOX_MASS", "DENSITY", "FREE_LENGTH", "SPEED", "DURATION", "TOTAL"]
+           "Measurement", "measure", "bench_drive", "travel_error", "pull_error", "BOX_MASS", "DENSITY", "FREE_LENGTH", "SPEED", "DURATION", "TOTAL"]
 
 BOX_MASS = 1.0  # kg (the issue's)
 DENSITY = 0.5  # kg/m of rope: its weight on the winch, 0.5 kg at the start, a third of the load
@@ -55,11 +55,13 @@ BOX_BODY = "box"
 @dataclasses.dataclass(frozen=True)
 class LiftScene(Scene):
     """A :class:`~mjcable.scene.Scene` of a winch above a box, with its design: the box's ``box_mass`` (kg), the
-    rope's ``density`` (kg/m) and its ``free_length`` (m) below the winch at the start."""
+    rope's ``density`` (kg/m) and its ``free_length`` (m) below the winch at the start; ``runs``: scratch of one
+    benchmark run (its samples, :func:`bench_drive`), not part of the scene."""
 
     box_mass: float = dataclasses.field(default=BOX_MASS, kw_only=True)
     density: float = dataclasses.field(default=DENSITY, kw_only=True)
     free_length: float = dataclasses.field(default=FREE_LENGTH, kw_only=True)
+    runs: dict = dataclasses.field(default_factory=dict, kw_only=True, compare=False, repr=False)
 
 
 def lift_scene(n_segments: int = SEGMENTS, *, box_mass: float = BOX_MASS, density: float = DENSITY) -> LiftScene:
@@ -181,3 +183,30 @@ def measure(run: Record, *, g: float = reference.G) -> Measurement:
                        pull_error=float(np.max(np.abs(run.pull[steady] / expected - 1.0))), density=density,
                        density_error=abs(density / scene.density - 1.0),
                        return_error=abs(run.box[last] - run.box[before]))
+
+
+# ------------------------------------------------------------------------------- the benchmark's scenarios' hooks
+
+
+def bench_drive(sim: Simulator, t: float, params: dict) -> None:
+    """The ``winch`` scenarios' drive (before each of the runner's samples): :func:`drive`, into the scene's
+    ``runs``."""
+    drive(sim, sim.scene.runs.setdefault("rows", []))
+
+
+def _measured(scene: LiftScene) -> Measurement:
+    return measure(from_samples(scene.runs.pop("rows"), scene))
+
+
+def travel_error(scene: LiftScene, x: np.ndarray, history: dict) -> float:
+    """The ``winch`` scenario's error (m): the larger of :attr:`Measurement.rise_error` and
+    :attr:`Measurement.return_error` of the run's samples."""
+    found = _measured(scene)
+    return max(found.rise_error, found.return_error)
+
+
+def pull_error(scene: LiftScene, x: np.ndarray, history: dict) -> float:
+    """The ``winch_pull`` scenario's error (relative): the larger of :attr:`Measurement.pull_error` and
+    :attr:`Measurement.density_error` of the run's samples."""
+    found = _measured(scene)
+    return max(found.pull_error, found.density_error)
