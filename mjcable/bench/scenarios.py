@@ -44,6 +44,12 @@ on a rope over a pulley on a frictionless hinge in a user world: relative error 
 fitted over 0.15-0.6 s, against the heavy-rope Atwood machine with the pulley's inertia) and ``pulley_slip`` (the
 same run: |ω R_c / v_box − 1| over the window's second half, 0 without slip).
 
+And the winch family (:mod:`mjcable.bench.winch`): a winch reels a 1 kg box on 1 m of rope (0.5 kg/m) in by 0.3 m
+at 0.1 m/s and pays it out again: ``winch`` (metres: the larger of the box's rise's error against the reeled length
+and its distance from its start at the end) and ``winch_pull`` (relative: the larger of the winch's pull's error
+against the weight it holds while reeling steadily and the mass per metre's from the pull at two lengths); models
+without winches are ``rejected``.
+
 And the harness family (:mod:`mjcable.bench.harness`): ``harness``, the Y-harness (three cables of 0.6 m from
 pins at three heights to one junction) damped to rest: largest distance in metres to the discrete reference
 (:func:`mjcable.reference_harness.y_harness`); ``n_segments`` per leg; models that cannot hold several cables
