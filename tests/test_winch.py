@@ -172,3 +172,28 @@ def test_the_bench_measures_the_winch_family():
     assert [row["outcome"] for row in rows] == ["stable", "stable"]
     assert rows[0]["error"] < RISE_TOLERANCE and rows[1]["error"] < PULL_TOLERANCE
     assert run_case(Case("winch", "flexrod", 0.002, quick=True))["outcome"] == "rejected"
+
+
+@pytest.mark.slow
+def test_a_swinging_load_stays_its_free_length_from_the_winch_while_reeled_in():
+    """The winch is a hinge: a 1 kg ball on a light rope (5 g/m) swinging from 0.5 rad, reeled in at 0.1 m/s for
+    3 s, stays at the free length from the winch point (the rope straight under its tension, inextensible) within
+    10 µm at every step."""
+    winch_point = np.array([0.0, 0.0, 1.5])
+    down = np.array([np.sin(0.5), 0.0, -np.cos(0.5)])
+    spec = mujoco.MjSpec()
+    ball = spec.worldbody.add_body(name="ball", pos=winch_point + down - [0.0, 0.0, 0.04])
+    ball.add_freejoint()
+    ball.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.04, 0, 0], mass=1.0, contype=0, conaffinity=0)
+    rope = CableSpec([winch_point - 0.4 * down, winch_point, winch_point + down], 70, 0.003, 0.007)
+    scene = Scene(rope, (Pin(20, "winch"), Pin(-1, "body", body="ball", offset=(0.0, 0.0, 0.04))), world=spec)
+    sim = Simulator(scene, "xpbd")
+    sim.reel(0, -0.1)
+    gaps, sideways = [], []
+    for _ in range(300):
+        sim.step(0.01)
+        gaps.append(np.linalg.norm(sim.positions[-1] - winch_point) - sim.free_length(0))
+        sideways.append(sim.positions[-1][0])
+    assert sim.free_length(0) == pytest.approx(0.7, abs=1e-9)
+    assert np.max(np.abs(gaps)) < 1e-5
+    assert min(sideways) < -0.2 and max(sideways) > 0.2  # it swung both ways

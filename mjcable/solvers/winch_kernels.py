@@ -119,7 +119,9 @@ def winch_advance(S):
         c = pin_p[kp]
         u = S.winch_u[k]
         back = l0 - S.winch_len[k]  # the cable's direction: from the held particle's last point to the next one
-        ex, ey, ez = x[c + d, 0] - (wx - back * u[0]), x[c + d, 1] - (wy - back * u[1]), x[c + d, 2] - (wz - back * u[2])
+        ex = x[c + d, 0] - (wx - back * u[0])
+        ey = x[c + d, 1] - (wy - back * u[1])
+        ez = x[c + d, 2] - (wz - back * u[2])
         norm = math.sqrt(ex * ex + ey * ey + ez * ez)
         if norm > _TINY_LENGTH:
             u[0], u[1], u[2] = ex / norm, ey / norm, ez / norm
