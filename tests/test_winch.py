@@ -52,6 +52,17 @@ def test_a_winch_lifts_a_box_and_lowers_it_again(model, settings):
 
 
 @pytest.mark.slow
+def test_a_winch_whose_spool_holds_the_cables_end_lifts_alike():
+    """``Pin(-21, "winch")`` on the lift's rope laid from the box up: the spool holds the particles after the
+    winch's (the free cable runs to lower indices)."""
+    scene = winch.lift_scene()
+    flipped = dataclasses.replace(
+        scene, cable=dataclasses.replace(scene.cable, points=scene.cable.points[::-1]),
+        pins=(Pin(-21, "winch"), Pin(0, "body", body=winch.BOX_BODY, offset=(0.0, 0.0, winch.BOX_HALF))))
+    _check(winch.measure(winch.run_lift("xpbd", scene=flipped)))
+
+
+@pytest.mark.slow
 def test_a_bending_cable_reels_in_the_direct_order_with_its_bending_rows():
     """A cable with E·I > 0 (xpbd solves its curvature rows in the banded system, whose rows on the spool the winch
     switches off and on as it reels)."""
