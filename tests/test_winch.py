@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjcable import Pin, Scene, Simulator, catalog
+from mjcable import Gripper, Pin, Scene, Simulator, catalog
 from mjcable.bench import winch
 from mjcable.scene import CableSpec
 
@@ -103,6 +103,21 @@ def test_reel_and_free_length_take_a_winch_pin_and_a_finite_speed():
     assert sim.free_length(0) == pytest.approx(winch.FREE_LENGTH, rel=1e-12)
 
 
+@pytest.mark.slow
+def test_a_free_gripper_grasps_no_particle_on_a_spool():
+    scene = winch.lift_scene()
+    sim = Simulator(dataclasses.replace(scene, grippers=(Gripper((0.0, 0.3, 1.0)),)), "xpbd")
+    with pytest.raises(ValueError, match=r"index: particle 3 is on the spool of winch pins\[0\] now"):
+        sim.grasp(0, 3)
+    sim.reel(0, -0.1)
+    sim.step(0.5)  # 5 cm: 2.5 segments of 2 cm onto the spool
+    with pytest.raises(ValueError, match=r"index: particle 21 is on the spool of winch pins\[0\] now"):
+        sim.grasp(0, 21)
+    with pytest.raises(ValueError, match=r"index: particle 22 is held by winch pins\[0\] now"):
+        sim.grasp(0, 22)
+    assert sim.grasp(0, 40) == 40
+
+
 def _rope(n: int = 10) -> CableSpec:
     return CableSpec([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]], n, 0.003, 0.1)
 
@@ -154,8 +169,8 @@ DRUM_HALF = 0.05  # m
 LIGHT_ROPE = 1e-3  # kg/m: 1.4 g of rope against 3 kg of bodies
 
 
-@pytest.mark.parametrize("model, settings", [
-    ("xpbd", {}), pytest.param("pbd", {"order": "direct"}, marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("model, settings", [("xpbd", {}), ("pbd", {"order": "direct"})])
 def test_a_winch_on_a_body_pulls_it_with_the_cable_keeping_the_centre_of_mass(model, settings):
     """A drum of 2 kg reels in 0.3 m of the rope to a 1 kg box, both free in zero gravity: they approach by 0.3 m
     (an inextensible rope) with their centre of mass where it was (no outside force), so the drum moves a third of

@@ -401,6 +401,7 @@ class ParticleBackend:
         return winches.free_length(self.arrays, self._winches[k])
 
     def grasp(self, g: int, index: int) -> None:
+        winches.check_free(self.arrays, index)
         self._grasps.grasp(g, index, self.mj_data.mocap_pos[self._gripper_mocap[len(self.scene.gripper_pins) + g]])
 
     def release(self, g: int) -> None:

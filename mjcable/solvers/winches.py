@@ -16,7 +16,7 @@ import numpy as np
 
 from mjcable.scene import Scene
 
-__all__ = ["winch_pins", "arrays", "free_length", "RESET_FIELDS"]
+__all__ = ["winch_pins", "arrays", "free_length", "check_free", "RESET_FIELDS"]
 
 #: the fields a winch changes as it reels, which a reset copies back (beside the chain's)
 RESET_FIELDS = ("winch_u", "winch_len", "winch_speed", "seg_cable", "chain_seg", "link_particle", "link_neighbour",
@@ -81,3 +81,14 @@ def free_length(a: dict, row: int) -> float:
     held = int(a["pin_p"][a["winch_pin"][row]])
     beyond = abs(int(a["winch_far"][row]) - held - int(a["winch_dir"][row]))  # full segments after the first
     return float(a["winch_len"][row] + a["winch_l0"][row] * beyond)
+
+
+def check_free(a: dict, index: int) -> None:
+    """Raise unless particle ``index`` (global) is off every winch's spool and not held by a winch, now (the state's
+    arrays ``a``)."""
+    for row in range(len(a["winch_pin"])):
+        k = int(a["winch_pin"][row])
+        held, end = int(a["pin_p"][k]), int(a["winch_end"][row])
+        if min(held, end) <= index <= max(held, end):
+            raise ValueError(f"index: particle {index} is {'held by' if index == held else 'on the spool of'} "
+                             f"winch pins[{k}] now; grasp a particle of the free cable")
