@@ -128,11 +128,11 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
     band[:] = 0.0
     grad[:] = 0.0
     rho = 0.0
-    seg_cable = S.seg_cable
+    seg_cable, spools = S.seg_cable, S.winch_pin.shape[0] > 0
     for r in range(nrow):  # C, ∇C and α̃ of every row
         kind = row_kind[r]
         idx = row_idx[r]
-        if _in_gap(seg_cable, kind, idx):  # a row on a winch's spool: none (Δλ = 0, see _schur_assemble)
+        if spools and _in_gap(seg_cable, kind, idx):  # a row on a winch's spool: none (Δλ = 0, _schur_assemble)
             rhs[r] = 0.0
             continue
         cval = 0.0
@@ -312,7 +312,7 @@ def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
         if kind != ROW_STRETCH and kind != ROW_DISTANCE:
             continue
         i, j = row_p[r, 0], row_p[r, 1]
-        if (w[i] == 0.0 and w[j] == 0.0) or _in_gap(S.seg_cable, kind, row_idx[r]):
+        if (w[i] == 0.0 and w[j] == 0.0) or (S.winch_pin.shape[0] > 0 and _in_gap(S.seg_cable, kind, row_idx[r])):
             continue
         dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
