@@ -69,6 +69,7 @@ class ModelEntry:
       several_cables: it simulates a scene of several cables (``Scene(cable=(...))``), with contacts between them.
       junctions: it joins cables at ``Scene.junctions`` (and closes loops).
       rings: it threads cables through ``Scene.rings`` (sliding, with friction on the rim).
+      winches: it reels ``Pin(..., "winch")`` pins (:meth:`mjcable.Simulator.reel`).
     """
 
     name: str
@@ -87,6 +88,7 @@ class ModelEntry:
     several_cables: bool = False
     junctions: bool = False
     rings: bool = False
+    winches: bool = False
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
@@ -213,7 +215,8 @@ def check_substep(dt: float, settings) -> None:
 def check_scene(scene: Scene, model: str) -> None:
     """What model ``model`` can't honour of ``scene``: several cables or junctions for a model that takes one cable,
     a cable's ``rest_shape`` it has no means for, or an anisotropic ``section`` for a model that bends isotropically,
-    is a ``ValueError``; a ``shear_modulus`` given to a model without a twist stiffness of its own a warning.
+    a winch for a model that can't reel one, is a ``ValueError``; a ``shear_modulus`` given to a model without a
+    twist stiffness of its own a warning.
 
     Raises:
       ValueError: naming what the model can't do (several cables, junctions, ``rest_shape`` or ``section``), the
@@ -230,8 +233,21 @@ def check_scene(scene: Scene, model: str) -> None:
                              f"use one of {takers}" if takers else
                              f"{model}: {what} in scene {scene.name!r}: model {model!r} does not simulate them yet, "
                              f"and no registered model does")
+    winches = [k for k, pin in enumerate(scene.pins) if pin.kind == "winch"]
+    if winches and not entry.winches:
+        raise ValueError(f"pins[{winches[0]}] is a winch, which model {model!r} can't reel: "
+                         f"{_NO_WINCH['frames' if entry.frames else entry.family]}; "
+                         f"use one of {tuple(n for n, e in _REGISTRY.items() if e.winches)}")
     for cable in scene.cables:
         _check_cable(cable, model, entry)
+
+
+#: why a model without winches can't reel one: a native model, a particle model with material frames
+_NO_WINCH = {"native": "its segments are MuJoCo bodies and joints (or flex edges) compiled once with the scene, "
+                       "and paying a cable out would need segments switched in and out at run time",
+             "frames": "its segments carry material frames and rest curvatures per segment, which a winch's cursor "
+                       "moving through the particles does not carry along",
+             "particle": "it is not registered with winches=True (its rules don't hold a winch's cursor)"}
 
 
 def _check_cable(cable: CableSpec, model: str, entry: ModelEntry) -> None:
@@ -298,7 +314,8 @@ for _module, _settings, _summary in (
         (xpbd, XPBDSettings, "Extended Position Based Dynamics, direct (banded) order")):
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="particle", settings=_settings,
                         build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary,
-                        ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True))
+                        ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True,
+                        winches=True))
 register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
                     backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
                     sections=True,

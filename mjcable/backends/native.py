@@ -164,7 +164,7 @@ class NativeBackend:
         # (a pin may sit inside its body)
         cable_bodies = np.unique(self._site_body)
         self._cable_geoms = np.isin(m.geom_bodyid, cable_bodies[cable_bodies > 0])
-        held = [_name2id(m, mujoco.mjtObj.mjOBJ_BODY, pin.body) for pin in scene.pins if pin.kind == "body"]
+        held = [_name2id(m, mujoco.mjtObj.mjOBJ_BODY, pin.body) for pin in scene.pins if pin.on_body]
         self._held_geoms = np.isin(m.geom_bodyid, held)
         self._energy = CableEnergy(m, self._sites, scene)
         self.reset()
@@ -495,6 +495,12 @@ class NativeBackend:
         mujoco.mj_forward(m, d)
         self._refresh()
         self._added[index] += mass
+
+    def reel(self, k: int, speed: float) -> None:
+        self.free_length(k)
+
+    def free_length(self, k: int) -> float:
+        raise ValueError(f"model {self.name!r} has no winches (catalog.check_scene refuses them)")
 
     def grasp(self, g: int, index: int) -> None:
         self._grasps.grasp(g, index)
