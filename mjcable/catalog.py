@@ -68,6 +68,8 @@ class ModelEntry:
       sections: it bends anisotropically (``CableSpec.section`` with unequal semi-axes).
       several_cables: it simulates a scene of several cables (``Scene(cable=(...))``), with contacts between them.
       junctions: it joins cables at ``Scene.junctions`` (and closes loops).
+      rings: it threads cables through ``Scene.rings`` (sliding, with friction on the rim).
+      winches: it reels ``Pin(..., "winch")`` pins (:meth:`mjcable.Simulator.reel`).
       start_twist: it starts a cable's frames twisted by ``CableSpec.start_twist``.
     """
 
@@ -86,6 +88,8 @@ class ModelEntry:
     sections: bool = False
     several_cables: bool = False
     junctions: bool = False
+    rings: bool = False
+    winches: bool = False
     start_twist: bool = False
 
     def __post_init__(self):
@@ -213,7 +217,8 @@ def check_substep(dt: float, settings) -> None:
 def check_scene(scene: Scene, model: str) -> None:
     """What model ``model`` can't honour of ``scene``: several cables or junctions for a model that takes one cable,
     a cable's ``rest_shape`` it has no means for, or an anisotropic ``section`` for a model that bends isotropically,
-    is a ``ValueError``; a ``shear_modulus`` given to a model without a twist stiffness of its own a warning.
+    a winch for a model that can't reel one, is a ``ValueError``; a ``shear_modulus`` given to a model without a
+    twist stiffness of its own a warning.
 
     Raises:
       ValueError: naming what the model can't do (several cables, junctions, ``rest_shape`` or ``section``), the
@@ -222,15 +227,29 @@ def check_scene(scene: Scene, model: str) -> None:
     entry = get(model)
     for capability, what, wanted in (("several_cables", f"several cables ({len(scene.cables)})",
                                       len(scene.cables) > 1),
-                                     ("junctions", f"junctions ({len(scene.junctions)})", bool(scene.junctions))):
+                                     ("junctions", f"junctions ({len(scene.junctions)})", bool(scene.junctions)),
+                                     ("rings", f"rings ({len(scene.rings)})", bool(scene.rings))):
         if wanted and not getattr(entry, capability):
             takers = tuple(n for n, e in _REGISTRY.items() if getattr(e, capability))
             raise ValueError(f"{model}: {what} in scene {scene.name!r}: model {model!r} does not simulate them yet; "
                              f"use one of {takers}" if takers else
                              f"{model}: {what} in scene {scene.name!r}: model {model!r} does not simulate them yet, "
                              f"and no registered model does")
+    winches = [k for k, pin in enumerate(scene.pins) if pin.kind == "winch"]
+    if winches and not entry.winches:
+        raise ValueError(f"pins[{winches[0]}] is a winch, which model {model!r} can't reel: "
+                         f"{_NO_WINCH['frames' if entry.frames else entry.family]}; "
+                         f"use one of {tuple(n for n, e in _REGISTRY.items() if e.winches)}")
     for cable in scene.cables:
         _check_cable(cable, model, entry)
+
+
+#: why a model without winches can't reel one: a native model, a particle model with material frames
+_NO_WINCH = {"native": "its segments are MuJoCo bodies and joints (or flex edges) compiled once with the scene, "
+                       "and paying a cable out would need segments switched in and out at run time",
+             "frames": "its segments carry material frames and rest curvatures per segment, which a winch's cursor "
+                       "moving through the particles does not carry along",
+             "particle": "it is not registered with winches=True (its rules don't hold a winch's cursor)"}
 
 
 def _check_cable(cable: CableSpec, model: str, entry: ModelEntry) -> None:
@@ -294,14 +313,15 @@ for _module, _settings, _summary, _missing in (
                         backend=NativeBackend, summary=_summary,
                         ignores=getattr(_module, "IGNORES", {}), check=getattr(_module, "precheck", None),
                         twist=_module is composite, frames=_module in (joints, composite),
-                        several_cables=True, junctions=True))
+                        several_cables=True, junctions=True, rings=True))
 for _module, _settings, _summary in (
         (jakobsen, JakobsenSettings, "Jakobsen's Verlet relaxation"),
         (pbd, PBDSettings, "Position Based Dynamics"),
         (xpbd, XPBDSettings, "Extended Position Based Dynamics, direct (banded) order")):
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="particle", settings=_settings,
                         build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary,
-                        ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True))
+                        ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True,
+                        winches=True))
 register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
                     backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
                     sections=True, junctions=True, start_twist=True,

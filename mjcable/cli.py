@@ -6,6 +6,7 @@ Subcommands::
                                                    then of those that simulate several cables on the Y-harness
     mjcable render --scene S --model M -o out.mp4  one model (or several side by side, or "all") on a built-in scene
     mjcable render --env TASK --model M --policy random -o out.mp4   an episode of a dm_control task (mjcable.envs)
+    mjcable render --family F --model M -o out.mp4 a bench family's video (mjcable.bench.videos: pulley)
     mjcable export [--out models] [--check]        MJCF of every native model x built-in scene
     mjcable bench [--quick] [--out DIR] [--jobs N | --scheduler ADDRESS] [--models ...]
                                                    work-precision benchmarks (mjcable.bench) on a Dask cluster
@@ -35,6 +36,7 @@ DEMO_HARNESS_SEGMENTS = 20  # segments per leg of the demo's Y-harness (mjcable.
 DEMO_TILE = (320, 240)  # pixels per tile (width, height)
 RENDER_SIZE = (640, 480)  # pixels (width, height) of `mjcable render` with one model
 GRID_TILE = (320, 240)  # pixels per tile of `mjcable render` with several models
+RENDER_SECONDS = 5.0  # s of `mjcable render --scene/--env` unless --seconds says
 DEFAULT_DT = 0.002  # s, the Simulator's default
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -94,11 +96,14 @@ def build_parser() -> argparse.ArgumentParser:
     source = render.add_mutually_exclusive_group(required=True)
     source.add_argument("--scene", choices=scenes.names(), help="built-in scene")
     source.add_argument("--env", metavar="TASK", help="dm_control task of mjcable.envs (e.g. reach_sag)")
+    source.add_argument("--family", metavar="FAMILY", help="a bench family's video scene (mjcable.bench.videos, e.g. "
+                                                          "pulley: the rope turning a pulley)")
     render.add_argument("--model", nargs="+", required=True, metavar="MODEL",
                         help=f"one or more of {', '.join(catalog.names())}, or 'all' (every available model); several "
                              "models are rendered side by side")
     render.add_argument("-o", "--out", required=True, help="video file (.mp4)")
-    render.add_argument("--seconds", type=_positive_float, default=5.0, help="simulated seconds (default 5)")
+    render.add_argument("--seconds", type=_positive_float, default=None,
+                        help=f"simulated seconds (default {RENDER_SECONDS:g}; for --family, the family's)")
     render.add_argument("--fps", type=_positive_int, default=30, help="frames per second (default 30)")
     render.add_argument("--width", type=_positive_int, default=None,
                         help=f"width in pixels, per tile (default {RENDER_SIZE[0]}, or {GRID_TILE[0]} side by side)")
@@ -224,11 +229,15 @@ def _render(args) -> int:
 
     if args.env is not None:
         return _render_env(args)
+    videos = family = None
+    if args.family is not None:
+        videos = importlib.import_module("mjcable.bench.videos")  # imported here: mjcable.bench is slow to import
+        family = videos.get(args.family)
     models = list(args.model)
     problems = {}
     dt = DEFAULT_DT if args.dt is None else args.dt
     if models == ["all"]:
-        models, problems = render.available_models(args.scene, dt=dt)
+        models, problems = render.available_models(args.scene if family is None else family.make_scene(), dt=dt)
         _report_unavailable()
         _report_problems(problems)
         if not models:
@@ -238,12 +247,15 @@ def _render(args) -> int:
     if bad:
         raise ValueError(f"--model must be 'all' or names from {catalog.names()}, got {bad}")
     width, height = _size(args, RENDER_SIZE if len(models) == 1 else GRID_TILE)
-    if len(models) == 1:
-        path = render.render_video(args.scene, models[0], args.out, seconds=args.seconds, fps=args.fps,
+    if family is not None:
+        path = videos.render(family.name, models[0] if len(models) == 1 else models, args.out, seconds=args.seconds,
+                             fps=args.fps, width=width, height=height, dt=dt, camera=args.camera, stripe=args.stripe)
+    elif len(models) == 1:
+        path = render.render_video(args.scene, models[0], args.out, seconds=_seconds(args), fps=args.fps,
                                    width=width, height=height, dt=dt, camera=args.camera,
                                    stripe=args.stripe)
     else:
-        path = render.render_grid(args.scene, models, args.out, seconds=args.seconds, fps=args.fps,
+        path = render.render_grid(args.scene, models, args.out, seconds=_seconds(args), fps=args.fps,
                                   tile_width=width, tile_height=height, dt=dt, camera=args.camera,
                                   stripe=args.stripe)
     print(path.resolve())
@@ -262,10 +274,14 @@ def _render_env(args) -> int:
     env = envs.load(args.env, args.model[0], random=args.seed, **settings)
     camera = "overview" if args.camera == "track" else args.camera
     width, height = _size(args, RENDER_SIZE)
-    path = render.render_env(env, args.out, seconds=args.seconds, fps=args.fps, width=width, height=height,
+    path = render.render_env(env, args.out, seconds=_seconds(args), fps=args.fps, width=width, height=height,
                              camera=camera, policy=args.policy, seed=args.seed)
     print(path.resolve())
     return EXIT_OK
+
+
+def _seconds(args) -> float:
+    return RENDER_SECONDS if args.seconds is None else args.seconds
 
 
 def _size(args, default) -> tuple:

@@ -16,9 +16,10 @@ from mjcable import _validate, geometry
 from mjcable.obstacles import START_CONTACT_TOLERANCE
 from mjcable._validate import Vec3, set_field as _set
 
-__all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE", "Gripper", "check_cables_apart"]
+__all__ = ["Pin", "PIN_KINDS", "BODY_PIN_TOLERANCE", "Junction", "JUNCTION_TOLERANCE", "Gripper", "check_cables_apart",
+           "check_winches"]
 
-PIN_KINDS = ("world", "gripper", "socket", "body")
+PIN_KINDS = ("world", "gripper", "socket", "body", "winch")
 BODY_PIN_TOLERANCE = 1e-3  # m: how far a body pin's point may start from its particle
 # m: how far apart a junction's two particles may start (round-off of two cables' ends laid on one point); farther,
 # the junction would pull them together on the first step
@@ -36,9 +37,13 @@ class Pin:
       kind: ``"world"`` (fixed at its start position, free to rotate), ``"gripper"`` (attached to a mocap body moved
         with :meth:`mjcable.Simulator.move_gripper`), ``"socket"`` (fixed until the pin's force exceeds
         ``release_force``, then released for good) or ``"body"`` (held at the point ``offset`` fixed in the frame
-        of the scene world's body ``body``, which then feels the cable: see :class:`Scene`).
-      body: the world body of a ``"body"`` pin.
-      offset: ``(3,)`` m, the held point in ``body``'s frame; only for ``kind="body"``. At the start it must lie
+        of the scene world's body ``body``, which then feels the cable: see :class:`Scene`) or ``"winch"`` (reels
+        the cable in or pays it out at run time, :meth:`mjcable.Simulator.reel`: fixed at its start position, or
+        with ``body`` at a point of that body, which then feels the pull; the particles between the cable's end and
+        ``index`` start on its spool, those after a non-negative ``index``'s cable start, before a negative one's
+        end: :mod:`mjcable.solvers.winches`).
+      body: the world body of a ``"body"`` pin (required), or of a ``"winch"`` (optional).
+      offset: ``(3,)`` m, the held point in ``body``'s frame; only with ``body``. At the start it must lie
         within :data:`BODY_PIN_TOLERANCE` of the pinned particle.
       clamp: also hold the cable's tangent at the pin (a cantilever root); a body clamp holds the direction the
         tangent has at the start, expressed in the body's frame (a rod with frames, ``cosserat``: the whole frame,
@@ -61,16 +66,22 @@ class Pin:
         _validate.choice("kind", self.kind, PIN_KINDS)
         _set(self, "clamp", _validate.boolean("clamp", self.clamp))
         _set(self, "offset", _validate.vec3("offset", self.offset, unit="m"))
-        if self.kind == "body":
+        if self.kind == "body" or (self.kind == "winch" and self.body is not None):
             if not isinstance(self.body, str) or not self.body:
                 raise ValueError(f"body is required for kind='body': the name of a body of the scene's world, "
-                                 f"got {self.body!r}")
+                                 f"got {self.body!r}" if self.kind == "body" else
+                                 f"body of a winch must be the name of a body of the scene's world (or None: a "
+                                 f"winch fixed in the world), got {self.body!r}")
         else:
             if self.body is not None:
-                raise ValueError(f"body applies only to kind='body', got body={self.body!r} for kind={self.kind!r}")
-            if any(self.offset):
-                raise ValueError(f"offset applies only to kind='body', got offset={self.offset!r} for "
+                raise ValueError(f"body applies only to kind='body' or 'winch', got body={self.body!r} for "
                                  f"kind={self.kind!r}")
+            if any(self.offset):
+                raise ValueError(f"offset applies only to a pin with a body (kind='body' or 'winch'), got "
+                                 f"offset={self.offset!r} for kind={self.kind!r} without a body")
+        if self.kind == "winch" and self.clamp:
+            raise ValueError("clamp applies to no winch (a winch holds its cable as a hinge at the winch point), got "
+                             "clamp=True for kind='winch'")
         if self.kind == "socket":
             if self.release_force is None:
                 raise ValueError("release_force is required for a socket pin: the force in N above which it lets go")
@@ -79,6 +90,12 @@ class Pin:
         elif self.release_force is not None:
             raise ValueError(f"release_force applies only to kind='socket', got {self.release_force!r} "
                              f"for kind={self.kind!r}")
+
+
+    @property
+    def on_body(self) -> bool:
+        """Whether a body of the scene's world holds the pin (a ``"body"`` pin, or a ``"winch"`` with ``body``)."""
+        return self.body is not None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -186,3 +203,30 @@ def check_cables_apart(scene) -> None:
                 f"{d} are {gap - depth[i, j]:.4g} m apart, {depth[i, j]:.4g} m less than their radii's sum "
                 f"{gap:g} m (up to {START_CONTACT_TOLERANCE:g} m is allowed); move the cables' points apart, or "
                 f"join them at a point with a Junction")
+
+
+def check_winches(scene) -> None:
+    """Raise unless each winch of ``scene`` (a :class:`mjcable.scene.Scene`) leaves its cable at least one free
+    segment, is its cable's only winch, and no other pin or junction holds a particle on its spool (those between the
+    cable's end and the winch's index, :mod:`mjcable.solvers.winches`)."""
+    spooled = {}  # global particle -> the winch whose spool holds it
+    for k, pin in enumerate(scene.pins):
+        if pin.kind != "winch":
+            continue
+        n = scene.cables[pin.cable].n_segments
+        part = scene.cable_slices[pin.cable]
+        local = scene.pin_particle(k) - part.start
+        if local == (n if pin.index >= 0 else 0):
+            raise ValueError(f"pins[{k}]: a winch at index {pin.index} leaves cable {pin.cable} no free segment (its "
+                             f"spool holds the particles {'before' if pin.index >= 0 else 'after'} the index); use an "
+                             f"index in [0, {n - 1}] (spool at the cable's start) or [-{n}, -2] (spool at its end)")
+        if any(p.kind == "winch" and p.cable == pin.cable for p in scene.pins[:k]):
+            raise ValueError(f"pins[{k}]: cable {pin.cable} has a winch already; give each cable one winch")
+        ends = range(part.start, part.start + local) if pin.index >= 0 else range(part.start + local + 1, part.stop)
+        spooled.update({i: k for i in ends})
+    held = [(f"pins[{k}]", scene.pin_particle(k)) for k in range(len(scene.pins))]
+    held += [(f"junctions[{j}]", i) for j in range(len(scene.junctions)) for i in scene.junction_particles(j)]
+    for what, i in held:
+        if i in spooled:
+            raise ValueError(f"{what} holds particle {i}, which starts on the spool of winch pins[{spooled[i]}]; "
+                             f"hold a particle of the free cable, or move the winch's index")

@@ -150,7 +150,7 @@ def _pin_load(scene: Scene, k: Optional[int]) -> str:
     if scene.world is None:
         return ""
     for j, pin in enumerate(scene.pins):
-        if pin.kind == "body" and k in (None, j):
+        if pin.on_body and k in (None, j):
             mass = float(scene.world.model.body_subtreemass[scene.world.body_id(pin.body)])
             return f" under the {mass:.3g} kg body {pin.body!r} on pin {j}"
     return ""

@@ -334,6 +334,7 @@ class Scene:
                                           "Junction instances, e.g. (Junction((0, -1), (1, 0)),)"))
         self._check_junctions()
         joins.check_cables_apart(self)
+        joins.check_winches(self)
         _set(self, "grippers", _sequence("grippers", self.grippers, Gripper,
                                          "Gripper instances, e.g. (Gripper((0.0, 0.0, 1.0)),)"))
         obstacles = _sequence("obstacles", self.obstacles, Obstacle,
@@ -352,7 +353,7 @@ class Scene:
                 k = body_rings[0]
                 raise ValueError(f"rings[{k}] is on body {self.rings[k].body!r}, but the scene has no world; give "
                                  f"Scene(..., world=MJCF path or MjSpec)")
-            body_pins = [k for k, pin in enumerate(pins) if pin.kind == "body"]
+            body_pins = [k for k, pin in enumerate(pins) if pin.on_body]
             if body_pins:
                 k = body_pins[0]
                 raise ValueError(f"pins[{k}] holds body {pins[k].body!r}, but the scene has no world; give "
@@ -488,7 +489,7 @@ class Scene:
     def _check_body_pins(self) -> None:
         p = self.particles
         for k, pin in enumerate(self.pins):
-            if pin.kind != "body":
+            if not pin.on_body:
                 continue
             point = self.world.body_point(pin.body, pin.offset)
             i = self.pin_particle(k)
@@ -509,7 +510,7 @@ class Scene:
         ours = [k for k, pin in enumerate(self.pins) if pin.cable == c]
         local = {k: self.pins[k].index % n for k in ours}
         ignore = [(self.pins[k].body, range(max(local[k] - BODY_PIN_REACH, 0), min(local[k] + BODY_PIN_REACH + 1, n)))
-                  for k in ours if self.pins[k].kind == "body"]
+                  for k in ours if self.pins[k].on_body]
         deepest = self.world.start_depth(cable.particles, cable.radius, ignore, local.values())
         if deepest is not None and deepest.depth > START_CONTACT_TOLERANCE:
             i = deepest.particle
@@ -524,7 +525,7 @@ class Scene:
         """``(len(pins),)`` N: the weight each body pin's body hangs on the cable at the start
         (:meth:`mjcable.user_world.World.hanging_weight`; 0 for the other pins). The models' stability rules count it
         in the cable's tension."""
-        return np.array([self.world.hanging_weight(pin.body, pin.offset) if pin.kind == "body" else 0.0
+        return np.array([self.world.hanging_weight(pin.body, pin.offset) if pin.on_body else 0.0
                          for pin in self.pins], dtype=np.float64)
 
     @property

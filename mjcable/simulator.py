@@ -22,6 +22,7 @@ from mjcable import _validate, catalog, monitor, prechecks
 from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
+from mjcable.winch_control import WinchControl
 
 __all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE", "MAX_STEPS", "MAX_ROLLOUT_BYTES"]
 
@@ -68,7 +69,7 @@ class Trajectory:
         return len(self.times)
 
 
-class Simulator:
+class Simulator(WinchControl):
     """Simulate a scene with one cable model.
 
     Args:

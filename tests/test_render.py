@@ -139,8 +139,14 @@ class _RecordingSimulator(mjcable.Simulator):
 def test_frames_step_the_simulation_by_one_frame_period(monkeypatch):
     monkeypatch.setattr(render.tiles, "Simulator", _RecordingSimulator)
     _RecordingSimulator.calls = []
-    render.frames("hang", "springs", seconds=0.2, fps=25, dt=0.003, **SMALL)
-    assert _RecordingSimulator.calls == [pytest.approx(1 / 25)] * 4  # 5 frames: the first shows t = 0
+    render.frames("hang", "springs", seconds=0.2, fps=25, dt=0.003, drive=lambda sim: _RecordingSimulator.calls.append(
+        ("drive", sim.time)), **SMALL)
+    steps = [c for c in _RecordingSimulator.calls if not isinstance(c, tuple)]
+    assert steps == [pytest.approx(1 / 25)] * 4  # 5 frames: the first shows t = 0
+    # the drive runs before each frame's step, at the time that frame shows (to within one dt)
+    assert _RecordingSimulator.calls[::2] == [("drive", pytest.approx(k / 25, abs=0.003)) for k in range(4)]
+    with pytest.raises(ValueError, match=r"drive must be None or a callable drive\(simulator\), got 3"):
+        render.frames("hang", "springs", seconds=0.2, drive=3, **SMALL)
 
 
 def _broken_backend(*args, **kwargs):

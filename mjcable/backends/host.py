@@ -126,7 +126,7 @@ class Host:
                                "user world")
         self.m, self.d = mj_model, mj_data
         m, d = mj_model, mj_data
-        pins = [k for k, pin in enumerate(scene.pins) if pin.kind == "body"]
+        pins = [k for k, pin in enumerate(scene.pins) if pin.on_body]
         self.pins = np.array(pins, dtype=np.int64)
         self.particles = np.array([scene.pin_particle(k) for k in pins], dtype=np.int64)
         self.sites = np.array([m.site(world.anchor_site(k)).id for k in pins], dtype=np.int64)

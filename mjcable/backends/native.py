@@ -29,7 +29,7 @@ from mjcable import monitor
 from mjcable.backends.grasp import NativeGrasps
 from mjcable.backends.native_energy import CableEnergy
 from mjcable.backends.protocol import Energy, RunResult
-from mjcable.mjcf import cables, data, grasp, joints, world
+from mjcable.mjcf import cables, data, grasp, joints, rings, world
 from mjcable.mjcf.settings import NativeSettings
 from mjcable.scene import Scene
 from mjcable.solvers.monitor_kernels import CHECK_OK, CHECK_PIN, WARN_DEPTH, step_check
@@ -67,8 +67,11 @@ def spec_builder(generate: Callable[..., mujoco.MjSpec], *,
                 made = generate(scene, **options)
             if scene.grippers:
                 grasp.add_free_grippers(made, scene, timestep=options["timestep"])
+            if scene.rings:
+                rings.add_rings(made, scene, model, timestep=options["timestep"])
             spec = world.finish(made, scene)
-        if not scene.obstacles and scene.world is None and not settings.self_collision and len(scene.cables) == 1:
+        if (not scene.obstacles and not scene.rings and scene.world is None and not settings.self_collision
+                and len(scene.cables) == 1):
             spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
         return spec
 
@@ -161,7 +164,7 @@ class NativeBackend:
         # (a pin may sit inside its body)
         cable_bodies = np.unique(self._site_body)
         self._cable_geoms = np.isin(m.geom_bodyid, cable_bodies[cable_bodies > 0])
-        held = [_name2id(m, mujoco.mjtObj.mjOBJ_BODY, pin.body) for pin in scene.pins if pin.kind == "body"]
+        held = [_name2id(m, mujoco.mjtObj.mjOBJ_BODY, pin.body) for pin in scene.pins if pin.on_body]
         self._held_geoms = np.isin(m.geom_bodyid, held)
         self._energy = CableEnergy(m, self._sites, scene)
         self.reset()
@@ -492,6 +495,12 @@ class NativeBackend:
         mujoco.mj_forward(m, d)
         self._refresh()
         self._added[index] += mass
+
+    def reel(self, k: int, speed: float) -> None:
+        self.free_length(k)
+
+    def free_length(self, k: int) -> float:
+        raise ValueError(f"model {self.name!r} has no winches (catalog.check_scene refuses them)")
 
     def grasp(self, g: int, index: int) -> None:
         self._grasps.grasp(g, index)

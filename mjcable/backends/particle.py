@@ -32,6 +32,7 @@ from mjcable.solvers import capi, convergence, kernels, kernels_layout as layout
 from mjcable.solvers.contacts import ObstacleContacts
 from mjcable.solvers.energy import elastic_energy, rod_energy
 from mjcable.solvers.settings import ParticleSettings
+from mjcable.solvers import winches
 from mjcable.solvers.state import StateArrays, chain_arrays, quat_mul
 from mjcable.solvers.user_constraints import iteration_factor
 
@@ -42,7 +43,7 @@ _RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "relax", "prev", "par", "r
           "pin_release", "pin_force", "pin_sum", "pin_count", "band", "grad", "rhs", "fric_n", "fric_mu",
           "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob", "q", "q0",
           "omega", "lam_ss", "lam_bt", "lam_end", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react",
-          "clamp_wq", "lam_j", "junction_sum", "lam_weld")
+          "clamp_wq", "lam_j", "junction_sum", "lam_weld") + winches.RESET_FIELDS
 _NO_PATH = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
 
 
@@ -128,6 +129,8 @@ class ParticleBackend:
                 self._par[name] = value
         # a query's contacts may be kept by later steps only with static obstacles and no user world
         self._par["keep_queries"] = o is not None and not o.moving and self._host is None
+        a.update(winches.arrays(scene, a))  # (after the host's fields: a winch on a body follows its link)
+        self._winches = {k: row for row, k in enumerate(winches.winch_pins(scene))}
         self.state = layout.assemble(a)
         self._start = {name: a[name].copy() for name in _RESET}  # reset() copies these back
         self.timing = {"solve": 0.0, "sync": 0.0}
@@ -389,7 +392,16 @@ class ParticleBackend:
         f[~a.pin_active] = 0.0
         return f
 
+    def reel(self, k: int, speed: float) -> None:
+        """Winch ``scene.pins[k]`` reels at ``speed`` m/s from the next substep on (positive pays out)."""
+        self.arrays.winch_speed[self._winches[k]] = speed
+
+    def free_length(self, k: int) -> float:
+        """m: the free cable of winch ``scene.pins[k]`` (:func:`mjcable.solvers.winches.free_length`)."""
+        return winches.free_length(self.arrays, self._winches[k])
+
     def grasp(self, g: int, index: int) -> None:
+        winches.check_free(self.arrays, index)
         self._grasps.grasp(g, index, self.mj_data.mocap_pos[self._gripper_mocap[len(self.scene.gripper_pins) + g]])
 
     def release(self, g: int) -> None:

@@ -125,6 +125,13 @@ class Backend(Protocol):
         a clamped gripper) turn it to the unit quaternion ``orientation`` (4,) (w, x, y, z); ``orientation`` given
         to a model that can't honour it raises a ``ValueError``."""
 
+    def reel(self, k: int, speed: float) -> None:
+        """Reel winch ``scene.pins[k]`` at ``speed`` m/s (positive pays out) until changed (validated by the
+        Simulator; a model without winches refuses the scene at construction)."""
+
+    def free_length(self, k: int) -> float:
+        """m: the free cable of winch ``scene.pins[k]``."""
+
     def grasp(self, g: int, index: int) -> None:
         """Close free gripper ``g`` on particle ``index`` (validated by the Simulator), held where it is."""
 

@@ -3,7 +3,8 @@
 Modules: :mod:`~mjcable.bench.case` (a run and the model labels), :mod:`~mjcable.bench.runner` (running one),
 :mod:`~mjcable.bench.outcome` (how it ended), :mod:`~mjcable.bench.results` (the CSV), :mod:`~mjcable.bench.sweep`
 (many runs, resumable), :mod:`~mjcable.bench.scenarios`, :mod:`~mjcable.bench.accuracy` (``bench``),
-:mod:`~mjcable.bench.stress` (``stress``) and :mod:`~mjcable.bench.plots`.
+:mod:`~mjcable.bench.stress` (``stress``), :mod:`~mjcable.bench.plots` and :mod:`~mjcable.bench.videos` (a video of
+each family that shows a feature, ``mjcable render --family``).
 
 ``mjcable bench`` (:func:`cli_bench`) runs every model on the accuracy scenarios and writes a CSV, work-precision
 plots and Pareto tables; ``mjcable stress`` (:func:`cli_stress`) maps where each model diverges or tunnels.
@@ -29,6 +30,7 @@ from mjcable.bench.outcome import OUTCOMES
 from mjcable.bench.results import read_rows
 from mjcable.bench.runner import run_case
 from mjcable.bench.sweep import run_sweep
+from mjcable.bench import videos  # noqa: F401  (a video of each family that shows a feature: mjcable.bench.videos)
 
 __all__ = [
     "cli_bench",

@@ -44,6 +44,12 @@ on a rope over a pulley on a frictionless hinge in a user world: relative error 
 fitted over 0.15-0.6 s, against the heavy-rope Atwood machine with the pulley's inertia) and ``pulley_slip`` (the
 same run: |ω R_c / v_box − 1| over the window's second half, 0 without slip).
 
+And the winch family (:mod:`mjcable.bench.winch`): a winch reels a 1 kg box on 1 m of rope (0.5 kg/m) in by 0.3 m
+at 0.1 m/s and pays it out again: ``winch`` (metres: the larger of the box's rise's error against the reeled length
+and its distance from its start at the end) and ``winch_pull`` (relative: the larger of the winch's pull's error
+against the weight it holds while reeling steadily and the mass per metre's from the pull at two lengths); models
+without winches are ``rejected``.
+
 And the harness family (:mod:`mjcable.bench.harness`): ``harness``, the Y-harness (three cables of 0.6 m from
 pins at three heights to one junction) damped to rest: largest distance in metres to the discrete reference
 (:func:`mjcable.reference_harness.y_harness`); ``n_segments`` per leg; models that cannot hold several cables
@@ -81,7 +87,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
-from mjcable.bench import contact, harness, knot, pulley, twist
+from mjcable.bench import contact, harness, knot, pulley, twist, winch
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -481,6 +487,14 @@ SCENARIOS: Dict[str, Scenario] = {
               ("pulley", "relative error of the heavy box's acceleration against the heavy-rope Atwood machine",
                pulley.acceleration_error),
               ("pulley_slip", "slip: |rim speed / box speed − 1|", pulley.slip_error))),
+        *(Scenario(name, f"{what}; a winch reels a 1 kg box on 1 m of rope (0.5 kg/m) in by 0.3 m at 0.1 m/s and "
+                   "pays it out again", lambda n, p: winch.lift_scene(n), duration=winch.TOTAL,
+                   quick_duration=winch.TOTAL, error_kind=kind, evaluate=evaluate, drive=winch.bench_drive,
+                   passive=False)
+          for name, what, kind, evaluate in (
+              ("winch", "the box's rise against the reeled length, and its return", "m", winch.travel_error),
+              ("winch_pull", "the winch's pull against the weight it holds while reeling, and the rope's mass per "
+               "metre from the pull", "relative", winch.pull_error))),
         Scenario("torsion", "rod clamped at both ends in zero gravity, one end turned by π; relative error of the "
                  "end torque against G·J φ / L (models with material frames)",
                  lambda n, p: twist.twist_scene(n), duration=1.5, quick_duration=1.5, error_kind="relative",

@@ -1,4 +1,4 @@
-"""dm_control environments for lab cable scenes, on any of mjcable's seven cable models.
+"""dm_control environments for lab cable scenes, on any of mjcable's cable models.
 
 Tasks (registered once in :data:`SUITE`, like the dm_control suite):
 
@@ -7,12 +7,14 @@ Tasks (registered once in :data:`SUITE`, like the dm_control suite):
 * ``unplug``: pull the plug end out of a socket (it lets go above a force) and carry it to a random target;
 * ``untangle``: two cables crossed on a table; pull the one held by a gripper off the other and lay it in a target
   zone without dragging the other (models with ``several_cables`` only; :mod:`mjcable.envs.untangle`);
+* ``hang``: pick a cable up from the middle of a table with a free gripper that grasps and lets go (a fourth action
+  entry) and hang it on a hook, both halves down (:mod:`mjcable.envs.hang`);
 * ``jaco_unplug``: a Kinova Jaco arm (joint position targets) holding one end pulls the plug out of a wall socket
   and carries it to a target (:mod:`mjcable.envs.jaco_unplug`; tag ``"arm"``, the others are ``"benchmarking"``).
 
 Every environment is a ``dm_control.rl.control.Environment``: actions are gripper displacements per control step
-(one ``BoundedArraySpec``; grippers are clamped to a workspace where they can neither overstretch the cable nor enter
-an obstacle), observations an ordered dict of float64 arrays (``centreline``, ``centreline_velocity`` of every cable
+(one ``BoundedArraySpec``; ``hang`` adds a grip command; grippers are clamped to a workspace where they can neither
+overstretch the cable nor enter an obstacle), observations an ordered dict of float64 arrays (``centreline``, ``centreline_velocity`` of every cable
 in cable order, ``grippers`` and the task's values), rewards in [0, 1] and a time limit. The same ``random`` seed gives the same episode.
 
 Example::
@@ -42,7 +44,7 @@ from dm_control.rl import control  # noqa: E402
 
 from mjcable import render  # noqa: E402
 from mjcable import catalog  # noqa: E402
-from mjcable.envs import base, drape, jaco_unplug, reach_sag, unplug, untangle  # noqa: E402, F401  (registers the tasks)
+from mjcable.envs import base, drape, hang, jaco_unplug, reach_sag, unplug, untangle  # noqa: E402, F401  (registers the tasks)
 from mjcable.envs.batch import BatchEnv, load_batch  # noqa: E402
 from mjcable.envs.base import (  # noqa: E402
     DEFAULT_CONTROL_TIMESTEP, FAMILY_DEFAULTS, MAX_GRIPPER_SPEED, SUITE, CablePhysics, CableTask, env_defaults)
@@ -94,7 +96,8 @@ def load(task: str, model: str = "flexrod", *, random=None, time_limit: Optional
     """A cable task on one cable model.
 
     Args:
-      task: one of :func:`names` (``"reach_sag"``, ``"drape"``, ``"unplug"``, ``"untangle"``, ``"jaco_unplug"``).
+      task: one of :func:`names` (``"reach_sag"``, ``"drape"``, ``"unplug"``, ``"untangle"``, ``"hang"``,
+        ``"jaco_unplug"``).
       model: a model of the catalogue (:func:`mjcable.catalog.names`).
       random: an int seed, a ``numpy.random.RandomState`` or ``None`` (fresh entropy), as in dm_control.
       time_limit: episode length in seconds (> 0); default the task's (10 s).

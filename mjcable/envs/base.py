@@ -129,7 +129,9 @@ class CablePhysics(mujoco.Physics):
     def _attach(self, simulator: Simulator) -> None:
         self._sim = simulator
         scene = simulator.scene
-        self._grippers = list(scene.gripper_pins)
+        n_pins = len(scene.pins)
+        # the gripper pins, then the free grippers numbered len(scene.pins) + g (the Simulator's move_gripper numbers)
+        self._grippers = list(scene.gripper_pins) + list(range(n_pins, n_pins + len(scene.grippers)))
         self._sockets = [k for k, pin in enumerate(scene.pins) if pin.kind == "socket"]  # the pins that can let go
         anchors = [scene.particles[scene.pin_particle(k)] for k in range(len(scene.pins))]
         self._anchors = np.array(anchors, dtype=np.float64).reshape(-1, 3)  # the pins' start particles (the scene's)
@@ -157,10 +159,10 @@ class CablePhysics(mujoco.Physics):
             sim.reset()
         self._commands = {}
         pins, engaged = self.pin_positions(), self.pins_engaged()
-        for k in scene.gripper_pins:
+        for k in self._grippers:
             excess = workspace.violation(k, pins[k], pins, engaged)
             if excess > 0.0:
-                raise ValueError(f"gripper of pin {k} starts {excess:.3g} m outside its workspace at "
+                raise ValueError(f"gripper {k} starts {excess:.3g} m outside its workspace at "
                                  f"{pins[k]}; widen the workspace or move the start")
         self._workspace = workspace
 
@@ -179,10 +181,12 @@ class CablePhysics(mujoco.Physics):
     # --- stepping -------------------------------------------------------------------------------------------------
 
     def command_grippers(self, displacements: Dict[int, np.ndarray]) -> None:
-        """Move gripper pins by ``displacements`` ({pin index: (3,) metres}) over the next :meth:`step`."""
+        """Move grippers by ``displacements`` ({gripper: (3,) metres}) over the next :meth:`step`: gripper pins by
+        their index into ``scene.pins``, free gripper ``g`` as ``len(scene.pins) + g``."""
         for k in displacements:
             if k not in self._grippers:
-                raise ValueError(f"displacements must be keyed by gripper pins {tuple(self._grippers)}, got pin {k!r}")
+                raise ValueError(f"displacements must be keyed by grippers {tuple(self._grippers)} (gripper pins, then "
+                                 f"free grippers as len(scene.pins) + g), got {k!r}")
         self._commands = {k: np.asarray(d, dtype=np.float64) for k, d in displacements.items()}
 
     def step(self, nstep: int = 1) -> None:
@@ -285,7 +289,8 @@ class CablePhysics(mujoco.Physics):
         return self._sim.positions[self.scene.cable_slices[c]]
 
     def gripper_positions(self) -> np.ndarray:
-        """``(n_grippers, 3)`` commanded gripper positions in metres, in the order of ``scene.gripper_pins``."""
+        """``(n_grippers, 3)`` commanded gripper positions in metres: the gripper pins in the order of
+        ``scene.gripper_pins``, then the free grippers (``scene.grippers``)."""
         return self._sim.gripper_positions
 
     def anchors(self) -> np.ndarray:
@@ -293,10 +298,13 @@ class CablePhysics(mujoco.Physics):
         return self._anchors.copy()
 
     def pin_positions(self) -> np.ndarray:
-        """``(n_pins, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the other pins
-        (world pins, sockets) at their start particles."""
-        pins = self._anchors.copy()
-        pins[self._gripper_rows] = self._sim.gripper_positions[:len(self._gripper_rows)]  # (free grippers follow)
+        """``(n_pins + n_free_grippers, 3)`` fixed sides of the pins in metres: grippers where they are commanded, the
+        other pins (world pins, sockets) at their start particles; then the free grippers (row ``len(scene.pins) +
+        g``, as :meth:`mjcable.Simulator.move_gripper` numbers them), where they are commanded: the rows
+        :class:`Workspace` clamps."""
+        pins = np.empty((len(self._anchors) + len(self.scene.grippers), 3))
+        pins[:len(self._anchors)] = self._anchors
+        pins[self._gripper_rows] = self._sim.gripper_positions
         return pins
 
     def pins_engaged(self) -> np.ndarray:
@@ -324,7 +332,8 @@ class CableTask(base.Task):
     """Base of the cable tasks: gripper-displacement actions, cable observations, a workspace clamp.
 
     Subclasses set ``name`` (the registry key), ``physics_class`` (a :class:`CablePhysics` subclass with the task's
-    read-outs), ``controlled`` (the gripper pins the action moves, in order) and, where their scenes need them, the
+    read-outs), ``controlled`` (the grippers the action moves, in order: gripper pins, free grippers as
+    ``len(scene.pins) + g``) and, where their scenes need them, the
     catalogue capabilities ``requires`` (``("several_cables",)``: loading on another model is a ``ValueError``), implement :meth:`make_scene`,
     :meth:`make_workspace`, :meth:`task_observations` and :meth:`get_reward`, draw their episode's random values from
     ``self.random`` in :meth:`make_scene` / :meth:`sample_episode`, and register with :func:`register`.
@@ -390,11 +399,10 @@ class CableTask(base.Task):
         return obs
 
 
-def checked_action(action, spec: specs.BoundedArray, bound: float, *, unit: str, what: str,
-                   per: str = "") -> np.ndarray:
-    """``action`` as a float64 array of ``spec``'s shape, each entry within ±``bound`` (in ``unit``; entries up to
-    ``_ACTION_RTOL`` past it, float32 round-off, are put onto the bound). ``what`` says what the entries are and
-    ``per`` qualifies the bound in the messages.
+def checked_action(action, spec: specs.BoundedArray, bound, *, unit: str, what: str, per: str = "") -> np.ndarray:
+    """``action`` as a float64 array of ``spec``'s shape, each entry within ±``bound`` (a number, or one per entry
+    of ``spec``'s shape; in ``unit``); entries up to ``_ACTION_RTOL`` past it, float32 round-off, are put onto the
+    bound. ``what`` says what the entries are and ``per`` qualifies the bound in the messages.
 
     Raises:
       ValueError: not an array, the wrong shape, a non-finite entry or one beyond the bound, naming it.
@@ -405,15 +413,18 @@ def checked_action(action, spec: specs.BoundedArray, bound: float, *, unit: str,
         raise ValueError(f"action must be an array of shape {spec.shape} in {unit}, got {action!r}") from exc
     if a.shape != spec.shape:
         raise ValueError(f"action must have shape {spec.shape} ({what}), got shape {a.shape}: {action!r}")
-    if not all(-bound <= x <= bound for x in a.ravel().tolist()):  # beyond a bound, or NaN
+    scalar = np.ndim(bound) == 0
+    if not (all(-bound <= x <= bound for x in a.ravel().tolist()) if scalar  # (a plain loop: the common case)
+            else bool(np.all(np.abs(a) <= bound))):  # beyond a bound, or NaN
         size = np.abs(a)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action must be finite, got {action!r}")
-        slack = bound + _ACTION_RTOL * bound
+        slack = bound + _ACTION_RTOL * np.asarray(bound)
         if not np.all(size <= slack):
-            raise ValueError(f"action entries must lie in [{-bound:g}, {bound:g}] {unit}{per}, got "
+            allowed = f"[{-bound:g}, {bound:g}]" if scalar else f"±{np.asarray(bound).tolist()} (entry by entry)"
+            raise ValueError(f"action entries must lie in {allowed} {unit}{per}, got "
                              f"{a[size > slack].tolist()} in {action!r}")
-        a = np.clip(a, -bound, bound)  # within the slack: onto the bound
+        a = np.clip(a, -np.asarray(bound), bound)  # within the slack: onto the bound
     return a
 
 

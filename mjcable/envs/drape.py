@@ -20,7 +20,7 @@ from mjcable.envs import base
 from mjcable.envs.workspace import Workspace
 from mjcable.scene import Cylinder, Pin, Scene
 
-__all__ = ["Physics", "Drape", "START_OFFSET", "START_HEIGHT", "HANG_DROP", "TIME_LIMIT"]
+__all__ = ["Physics", "Drape", "peg_measures", "START_OFFSET", "START_HEIGHT", "HANG_DROP", "TIME_LIMIT"]
 
 START_OFFSET = (0.3, 0.45)  # m, horizontal distance of the gripper from the peg's axis at the start (uniform)
 START_HEIGHT = 1.35  # m, gripper height at the start; the 1 m cable hangs straight down from it
@@ -37,7 +37,7 @@ _PEG = next(ob for ob in scenes.get("drape").obstacles if isinstance(ob, Cylinde
 
 
 @numba.njit(cache=True)
-def _measures(x, top_x, top_z, radius):
+def peg_measures(x, top_x, top_z, radius):
     """The reward's measures of centreline ``x`` (n+1, 3) over a peg whose top is at (``top_x``, ·, ``top_z``):
     the rest gap (m) and the two legs' mean x (m), as :meth:`Physics.rest_gap` and :meth:`Physics.leg_positions`."""
     highest = 0
@@ -77,7 +77,7 @@ class Physics(base.CablePhysics):
         (2, 3) metres; see :meth:`rest_gap`, :meth:`leg_positions` and :meth:`ends`."""
         x = self.centreline()
         top = self.peg_top()
-        gap, legs = _measures(x, top[0], top[2], self.scene.cable.radius)
+        gap, legs = peg_measures(x, top[0], top[2], self.scene.cable.radius)
         return gap, legs, x[[0, -1]]
 
     def leg_positions(self) -> np.ndarray:

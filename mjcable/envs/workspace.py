@@ -11,6 +11,11 @@ A :class:`Workspace` clamps each commanded gripper motion, whatever the actions,
   the junctions into the others (the shortest way, over a loop's either side); a pin on a cable that no junction
   joins to the gripper's holds no tether on it.
 
+Free grippers (``scene.grippers``, which grasp and release particles at run time) are clamped as gripper pins are,
+numbered as :meth:`mjcable.Simulator.move_gripper` numbers them (``len(scene.pins) + g``, the rows after the pins'
+in ``pins``), to the box and the obstacles' clearance only: what a free gripper holds changes at run time, so no
+tether binds it, nor binds a gripper pin to it.
+
 Motions are split into increments no longer than half the clearance, each projected onto the allowed set, so a
 gripper cannot tunnel through a thin obstacle. A projection that fails to satisfy every constraint keeps the last
 allowed position: the gripper stops instead of entering a forbidden region. The clamp runs compiled
@@ -79,12 +84,14 @@ class Workspace:
         object.__setattr__(self, "_box", np.array([low, high]))  # (2, 3) m
         tethers = {k: self._make_tethers(k) for k in self.scene.gripper_pins}
         n_pins = len(self.scene.pins)
-        tether_max = np.full((n_pins, n_pins), np.inf)
+        n_rows = n_pins + len(self.scene.grippers)
+        tethers.update({k: () for k in range(n_pins, n_rows)})  # free grippers: no tethers
+        tether_max = np.full((n_rows, n_rows), np.inf)
         for k, ts in tethers.items():
             for t in ts:
                 tether_max[k, t.pin] = t.max_distance
         object.__setattr__(self, "_tethers", tethers)
-        object.__setattr__(self, "_tether_max", tether_max)  # (n_pins, n_pins) m, row k gripper k's; inf: none
+        object.__setattr__(self, "_tether_max", tether_max)  # (n_rows, n_rows) m, row k gripper k's; inf: none
         object.__setattr__(self, "_holding_by", {})  # engaged pins (bytes) -> _holding's answer
         object.__setattr__(self, "_obstacles", projection.pack_obstacles(self.scene.obstacles))
 
@@ -107,7 +114,8 @@ class Workspace:
         return tuple(tethers)
 
     def tethers(self, k: int) -> Tuple[Tether, ...]:
-        """The tethers of gripper pin ``k`` (an index into ``scene.pins``)."""
+        """The tethers of gripper ``k`` (a gripper pin's index into ``scene.pins``; a free gripper's ``len(scene.pins)
+        + g``, which has none)."""
         return self._tethers[k]
 
     def tether(self, k: int, j: int) -> float:
@@ -125,10 +133,11 @@ class Workspace:
     def _check_grippers(self, grippers: Sequence[int]) -> None:
         for k in grippers:
             if isinstance(k, bool) or k not in self._tethers:
-                raise ValueError(f"k must be a gripper pin, one of {self.scene.gripper_pins}, got {k!r}")
+                raise ValueError(f"k must be a gripper (a gripper pin, or a free gripper as len(scene.pins) + g), "
+                                 f"one of {tuple(self._tethers)}, got {k!r}")
 
     def _holding(self, grippers: Sequence[int], engaged: Sequence[bool]) -> np.ndarray:
-        """``(n_pins, n_pins)`` m: the tethers that hold (rows of grippers, columns of engaged pins), ``inf`` where
+        """``(n_rows, n_rows)`` m: the tethers that hold (rows of grippers, columns of engaged pins), ``inf`` where
         none does."""
         self._check_grippers(grippers)
         engaged = np.asarray(engaged, dtype=bool)
@@ -136,8 +145,10 @@ class Workspace:
             raise ValueError(f"engaged must hold one bool per pin ({len(self.scene.pins)}), got {engaged!r}")
         key = engaged.tobytes()
         tethers = self._holding_by.get(key)
-        if tethers is None:  # once per pattern of engaged pins
-            tethers = np.where(engaged, self._tether_max, np.inf)  # (kept writable: numba types read-only apart)
+        if tethers is None:  # once per pattern of engaged pins (the free grippers' columns hold no tether anyway)
+            columns = np.ones(len(self._tether_max), dtype=bool)
+            columns[:len(engaged)] = engaged
+            tethers = np.where(columns, self._tether_max, np.inf)  # (kept writable: numba types read-only apart)
             self._holding_by[key] = tethers
         return tethers
 
@@ -145,9 +156,10 @@ class Workspace:
         """How far (metres) gripper ``k`` at ``position`` lies outside the allowed set; 0 inside it.
 
         Args:
-          k: gripper pin index.
+          k: gripper (a gripper pin's index; free gripper ``g``: ``len(scene.pins) + g``).
           position: (3,) candidate position in metres.
-          pins: (n_pins, 3) current positions of every pin's fixed side (grippers' and anchors' positions).
+          pins: (n_pins + n_free_grippers, 3) current positions of every pin's fixed side (grippers' and anchors'
+            positions), then of the free grippers (:meth:`mjcable.envs.CablePhysics.pin_positions`).
           engaged: per pin, whether it still holds the cable (a released socket does not).
         """
         tethers = self._holding((k,), engaged)
@@ -161,9 +173,10 @@ class Workspace:
         displacement with :meth:`move`; computed in one compiled call.
 
         Args:
-          displacements: {gripper pin index: (3,) whole displacement in metres}.
+          displacements: {gripper (as in :meth:`violation`): (3,) whole displacement in metres}.
           nstep: number of steps (an integer >= 1).
-          pins: (n_pins, 3) positions of every pin's fixed side at the start, metres.
+          pins: (n_pins + n_free_grippers, 3) positions of every pin's fixed side, then of the free grippers, at the
+            start, metres.
           engaged: per pin, whether it holds the cable (fixed over the steps).
           steps: how many of the ``nstep`` steps to take (an integer in [1, nstep]; default ``nstep``): the rest of
             a control step whose path is recomputed part way, after a socket let go.
@@ -185,10 +198,11 @@ class Workspace:
         """Where gripper ``k`` ends when commanded from ``start`` by ``displacement``, clamped to the allowed set.
 
         Args:
-          k: gripper pin index (into ``scene.pins``).
+          k: gripper (as in :meth:`violation`).
           start: (3,) current, allowed position in metres.
           displacement: (3,) commanded motion in metres.
-          pins: (n_pins, 3) current positions of every pin's fixed side, metres.
+          pins: (n_pins + n_free_grippers, 3) current positions of every pin's fixed side, then of the free
+            grippers, metres.
           engaged: per pin, whether it still holds the cable.
 
         Returns:

@@ -5,6 +5,7 @@
   :mod:`~mjcable.mjcf.flexrod`: MuJoCo's native cable models;
 * :mod:`~mjcable.mjcf.proxy`: the particle solvers' proxy (one capsule per segment, for contacts and rendering);
 * :mod:`~mjcable.mjcf.grasp`: the free grippers (``Scene.grippers``) every model gets;
+* :mod:`~mjcable.mjcf.rings`: the rings (``Scene.rings``) of the native models, tori of capsules;
 * :mod:`~mjcable.mjcf.settings`: the native models' settings dataclasses;
 * :mod:`~mjcable.mjcf.snap`: round-off snapping, so that a generated model is the same on every machine.
 
@@ -12,6 +13,6 @@
 model from the catalogue.
 """
 
-from mjcable.mjcf import composite, flexrod, grasp, joints, proxy, settings, snap, springs, world
+from mjcable.mjcf import composite, flexrod, grasp, joints, proxy, rings, settings, snap, springs, world
 
-__all__ = ["world", "springs", "joints", "composite", "flexrod", "proxy", "settings", "snap", "grasp"]
+__all__ = ["world", "springs", "joints", "composite", "flexrod", "proxy", "settings", "snap", "grasp", "rings"]

@@ -95,7 +95,7 @@ def check(scene: Scene, model: str) -> None:
         raise ValueError(f"{model}: a scene of at most {MAX_CABLES} cables (one contact bit each), got "
                          f"{len(scene.cables)}")
     if len(scene.cables) > 1:
-        body = [k for k, pin in enumerate(scene.pins) if pin.kind == "body"]
+        body = [k for k, pin in enumerate(scene.pins) if pin.on_body]
         if body:
             raise ValueError(f"{model}: pins[{body[0]}] is a body pin in a scene of several cables, which the native "
                              f"models don't build yet; pin the cable with a gripper or world pin, or use one cable")

@@ -308,7 +308,7 @@ def _add_pins(spec: mujoco.MjSpec, scene: Scene, timestep: float, rest: np.ndarr
     for k, pin in enumerate(scene.pins):
         i = scene.pin_particle(k)
         anchor = world.anchor_site(k)
-        if pin.kind == "body":  # a site in the user's body; the start keyframe poses the cable there
+        if pin.on_body:  # a site in the user's body; the start keyframe poses the cable there
             world.add_anchor(spec, scene, k)
             world.add_connect(spec, world.pin_equality(k), world.particle_site(i), anchor, timestep=timestep)
             if pin.clamp:

@@ -90,7 +90,7 @@ def build(scene: Scene, *, dt: float, contact_margin: float = DEFAULT_MARGIN, pr
                     spec.add_pair(geomname1=other, geomname2=segment_name(i), condim=3, margin=contact_margin)
     for k, pin in enumerate(scene.pins):
         world.add_anchor(spec, scene, k)
-        if pin.kind == "body" and pin.clamp:
+        if pin.on_body and pin.clamp:
             world.add_clamp_anchor(spec, scene, k)
     grasp.add_free_grippers(spec, scene)
     return snap.snap_spec(spec)

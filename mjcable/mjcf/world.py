@@ -183,7 +183,7 @@ def user_names(scene: Scene):
             raise
         raise ValueError(f"world: the cable needs an element your world already has ({error}); mjcable names "
                          f"its elements cable*, particle*, segment*, anchor*, gripper*, grasp*, pin*, obstacle*, spring*, "
-                         f"{CAMERA!r} and {START_KEY!r}: rename yours") from None
+                         f"ring*, {CAMERA!r} and {START_KEY!r}: rename yours") from None
 
 
 def finish(spec: mujoco.MjSpec, scene: Scene) -> mujoco.MjSpec:
@@ -222,7 +222,7 @@ def pinned_segments(scene: Scene, body: str) -> set:
     near = set()
     n = scene.n_particles - 1
     for k, pin in enumerate(scene.pins):
-        if pin.kind == "body" and pin.body == body:
+        if pin.on_body and pin.body == body:
             i = scene.pin_particle(k)
             near.update(range(max(i - BODY_PIN_REACH, 0), min(i + BODY_PIN_REACH, n)))
     return near
@@ -234,7 +234,7 @@ def _exclude_pinned_bodies(spec: mujoco.MjSpec, scene: Scene) -> None:
     n = scene.n_particles
     pairs = set()
     for k, pin in enumerate(scene.pins):
-        if pin.kind != "body":
+        if not pin.on_body:
             continue
         i = scene.pin_particle(k)
         for j in range(max(i - BODY_PIN_REACH, 0), min(i + BODY_PIN_REACH, n - 1) + 1):
@@ -353,7 +353,7 @@ def add_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position=None) -> str:
     pin = scene.pins[k]
     pos = scene.particles[scene.pin_particle(k)] if position is None else np.asarray(position)
     name = anchor_site(k)
-    if pin.kind == "body":  # the held point, fixed in the user's body
+    if pin.on_body:  # the held point, fixed in the user's body
         spec.body(pin.body).add_site(name=name, pos=pin.offset)
     elif pin.kind == "gripper":
         body = spec.worldbody.add_body(name=gripper_body(k), pos=pos, mocap=True)
@@ -374,7 +374,7 @@ def add_clamp_anchor(spec: mujoco.MjSpec, scene: Scene, k: int) -> str:
     p = scene.particles
     i, j = scene.pin_particle(k), scene.clamp_neighbour(k)
     name = f"{anchor_site(k)}_clamp"
-    if pin.kind == "body":
+    if pin.on_body:
         _, rot = scene.world.body_pose(pin.body)
         spec.body(pin.body).add_site(name=name, pos=np.asarray(pin.offset) + rot.T @ (p[j] - p[i]))
     elif pin.kind == "gripper":
@@ -391,7 +391,7 @@ def add_roll_anchor(spec: mujoco.MjSpec, scene: Scene, k: int, position: np.ndar
     pin = scene.pins[k]
     p = scene.particles[scene.pin_particle(k)]
     name = f"{anchor_site(k)}_roll"
-    if pin.kind == "body":
+    if pin.on_body:
         _, rot = scene.world.body_pose(pin.body)
         spec.body(pin.body).add_site(name=name, pos=np.asarray(pin.offset) + rot.T @ (position - p))
     elif pin.kind == "gripper":

@@ -24,7 +24,7 @@ from mjcable.render.grid import Layout, compose, grid_layout
 from mjcable.render.options import (Options, SceneLike, check_fps, check_min_cable_px, check_path, check_scene,
                                     check_seconds, check_settings, check_size, options)
 from mjcable.render.overlays import add_cables, add_centreline
-from mjcable.render.tiles import TileStream, make_tiles
+from mjcable.render.tiles import Drive, TileStream, make_tiles
 from mjcable.render.video_io import write_video
 from mjcable.simulator import Simulator
 
@@ -91,7 +91,7 @@ def _single(scene, model, label, **opts) -> Tuple:
 def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width: int = 320, height: int = 240,
            dt: float = 0.002, camera: str = cameras.TRACK, elevation: float = cameras.DEFAULT_ELEVATION,
            min_cable_px: float = 1.5, stripe: bool = False, label: Optional[str] = None,
-           progress: Optional[bool] = False, **settings) -> np.ndarray:
+           progress: Optional[bool] = False, drive: Optional[Drive] = None, **settings) -> np.ndarray:
     """Render a simulation of ``scene`` with ``model`` into memory.
 
     Args:
@@ -109,6 +109,8 @@ def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width
       progress: show a progress bar (``None``: for long renders on a terminal).
       stripe: draw a stripe along the cable's material frame (d₁) so that twist shows, for models with frames
         (``cosserat``, ``joints``, ``composite``; the others are drawn without).
+      drive: ``drive(simulator)``, called before each frame's step (every ``1 / fps`` s): what the scene does at
+        run time, such as reeling a winch; ``None``: nothing.
       **settings: the model's settings, passed to :class:`~mjcable.Simulator`.
 
     Returns:
@@ -121,8 +123,9 @@ def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width
     scene, opts, label = _single(scene, model, label, seconds=seconds, fps=fps, width=width, height=height,
                                  camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
         stripe=stripe)
+    drive = _check_drive(drive)
     out = np.empty((opts.n_frames, opts.height, opts.width, 3), np.uint8)
-    with TileStream(make_tiles(scene, [model], opts, dt, {model: settings}, [label]), opts) as stream:
+    with TileStream(make_tiles(scene, [model], opts, dt, {model: settings}, [label], drive), opts) as stream:
         for k, (image,) in enumerate(stream):
             out[k] = image
     return out
@@ -131,7 +134,8 @@ def frames(scene: SceneLike, model: str, *, seconds: float, fps: int = 30, width
 def render_video(scene: SceneLike, model: str, path, *, seconds: float = 5.0, fps: int = 30, width: int = 640,
                  height: int = 480, dt: float = 0.002, camera: str = cameras.TRACK,
                  elevation: float = cameras.DEFAULT_ELEVATION, min_cable_px: float = 1.5, stripe: bool = False,
-                 label: Optional[str] = None, progress: Optional[bool] = None, **settings) -> Path:
+                 label: Optional[str] = None, progress: Optional[bool] = None, drive: Optional[Drive] = None,
+                 **settings) -> Path:
     """Render a simulation of ``scene`` with ``model`` to an MP4 file, atomically.
 
     Arguments as in :func:`frames`; ``path`` is the ``.mp4`` file to write (its folder must exist). A model that
@@ -147,8 +151,9 @@ def render_video(scene: SceneLike, model: str, path, *, seconds: float = 5.0, fp
     scene, opts, label = _single(scene, model, label, seconds=seconds, fps=fps, width=width, height=height,
                                  camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
         stripe=stripe)
+    drive = _check_drive(drive)
     path = check_path(path)
-    with TileStream(make_tiles(scene, [model], opts, dt, {model: settings}, [label]), opts) as stream:
+    with TileStream(make_tiles(scene, [model], opts, dt, {model: settings}, [label], drive), opts) as stream:
         write_video(path, (images[0] for images in stream), fps=opts.fps, shape=(opts.height, opts.width))
     return path
 
@@ -160,8 +165,15 @@ def _grid(scene, models, columns, settings, **opts) -> Tuple:
     return scene, models, opts, grid_layout(len(models), columns), check_settings(settings, models)
 
 
-def _grid_stream(scene, models, opts: Options, layout: Layout, dt, settings) -> Iterator[np.ndarray]:
-    with TileStream(make_tiles(scene, models, opts, dt, settings), opts) as stream:
+def _check_drive(drive) -> Optional[Drive]:
+    if drive is not None and not callable(drive):
+        raise ValueError(f"drive must be None or a callable drive(simulator), got {drive!r}")
+    return drive
+
+
+def _grid_stream(scene, models, opts: Options, layout: Layout, dt, settings,
+                 drive: Optional[Drive] = None) -> Iterator[np.ndarray]:
+    with TileStream(make_tiles(scene, models, opts, dt, settings, drive=drive), opts) as stream:
         for images in stream:
             yield compose(images, layout)
 
@@ -170,7 +182,7 @@ def grid_frames(scene: SceneLike, models: Sequence[str], *, seconds: float, fps:
                 tile_height: int = 240, dt: float = 0.002, columns: Optional[int] = None,
                 camera: str = cameras.TRACK, elevation: float = cameras.DEFAULT_ELEVATION,
                 min_cable_px: float = 1.5, stripe: bool = False, settings: Optional[Mapping[str, dict]] = None,
-                progress: Optional[bool] = False) -> np.ndarray:
+                progress: Optional[bool] = False, drive: Optional[Drive] = None) -> np.ndarray:
     """Render several models of one scene side by side into memory.
 
     Args:
@@ -179,6 +191,7 @@ def grid_frames(scene: SceneLike, models: Sequence[str], *, seconds: float, fps:
       tile_width, tile_height: one tile's size in pixels, even, in [16, 4096].
       columns: tiles per row (default: up to 4, rows filled evenly); unused cells are dark grey.
       settings: per-model settings, ``{model: {setting: value}}``.
+      drive: called with each tile's Simulator before each frame's step (as in :func:`frames`).
       Other arguments as in :func:`frames`; all tiles share one tracking camera.
 
     Returns:
@@ -188,14 +201,14 @@ def grid_frames(scene: SceneLike, models: Sequence[str], *, seconds: float, fps:
         scene, models, columns, settings, seconds=seconds, fps=fps, width=tile_width, height=tile_height,
         camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
         stripe=stripe)
-    return np.stack(list(_grid_stream(scene, models, opts, layout, dt, settings)))
+    return np.stack(list(_grid_stream(scene, models, opts, layout, dt, settings, _check_drive(drive))))
 
 
 def render_grid(scene: SceneLike, models: Sequence[str], path, *, seconds: float = 5.0, fps: int = 30,
                 tile_width: int = 320, tile_height: int = 240, dt: float = 0.002, columns: Optional[int] = None,
                 camera: str = cameras.TRACK, elevation: float = cameras.DEFAULT_ELEVATION,
                 min_cable_px: float = 1.5, stripe: bool = False, settings: Optional[Mapping[str, dict]] = None,
-                progress: Optional[bool] = None) -> Path:
+                progress: Optional[bool] = None, drive: Optional[Drive] = None) -> Path:
     """Render several models of one scene side by side, labelled, to an MP4 file, atomically.
 
     Arguments as in :func:`grid_frames`; ``path`` is the ``.mp4`` file to write (its folder must exist). A model
@@ -213,8 +226,9 @@ def render_grid(scene: SceneLike, models: Sequence[str], path, *, seconds: float
         scene, models, columns, settings, seconds=seconds, fps=fps, width=tile_width, height=tile_height,
         camera=camera, elevation=elevation, min_cable_px=min_cable_px, progress=progress,
         stripe=stripe)
+    drive = _check_drive(drive)
     path = check_path(path)
-    write_video(path, _grid_stream(scene, models, opts, layout, dt, settings), fps=opts.fps,
+    write_video(path, _grid_stream(scene, models, opts, layout, dt, settings, drive), fps=opts.fps,
                 shape=layout.shape(opts.height, opts.width))
     return path
 

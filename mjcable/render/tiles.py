@@ -15,7 +15,7 @@ tiles go on.
 from __future__ import annotations
 
 import os
-from typing import Iterator, List, Mapping, Optional, Sequence
+from typing import Callable, Iterator, List, Mapping, Optional, Sequence
 
 import mujoco  # mjcable/__init__.py has set MUJOCO_GL=egl (unless set) before mujoco was first imported
 import numpy as np
@@ -28,7 +28,9 @@ from mjcable.render.overlays import add_cables, draw_label
 from mjcable.scene import Scene
 from mjcable.simulator import Simulator
 
-__all__ = ["Tile", "TileStream", "make_tiles", "progress_bar", "PROGRESS_MIN_RENDERS"]
+__all__ = ["Tile", "TileStream", "make_tiles", "progress_bar", "Drive", "PROGRESS_MIN_RENDERS"]
+
+Drive = Callable[[Simulator], None]  # what a scene does at run time, called with the Simulator before each frame
 
 PROGRESS_MIN_RENDERS = 150  # tile renders from which a progress bar is shown by default
 _DIVERGED_SHADE = 0.45  # brightness factor of a frozen (diverged) tile
@@ -42,12 +44,15 @@ class Tile:
       sim: the simulation (its model's offscreen buffer is resized to the tile).
       label: the tile's label.
       opts: the video's options.
+      drive: ``drive(sim)``, called before each frame's step: what the scene does at run time (e.g. a winch
+        reeling); ``None``: nothing.
     """
 
-    def __init__(self, sim: Simulator, label: str, opts: Options):
+    def __init__(self, sim: Simulator, label: str, opts: Options, drive: Optional[Drive] = None):
         self.sim = sim
         self.label = label
         self.opts = opts
+        self.drive = drive
         m = sim.mj_model
         # Visual-only settings of the simulator's own model: an offscreen buffer of the video's size.
         m.vis.global_.offwidth = opts.width
@@ -74,6 +79,8 @@ class Tile:
         if not self.live:
             return
         try:
+            if self.drive is not None:
+                self.drive(self.sim)
             self.sim.step(seconds)
         except SimulationDivergedError as exc:
             self.diverged = exc
@@ -188,15 +195,15 @@ def progress_bar(n_frames: int, n_tiles: int, progress: Optional[bool]):
 
 
 def make_tiles(scene: Scene, models: Sequence[str], opts: Options, dt: float, settings: Mapping[str, Mapping],
-               labels: Optional[Sequence[str]] = None) -> List[Tile]:
+               labels: Optional[Sequence[str]] = None, drive: Optional[Drive] = None) -> List[Tile]:
     """One :class:`Tile` per model (``settings[model]`` passed to its Simulator), labelled ``labels`` (default: the
-    model names); on failure the tiles already made are closed."""
+    model names), each driven by ``drive`` (:class:`Tile`); on failure the tiles already made are closed."""
     tiles: List[Tile] = []
     labels = list(models) if labels is None else labels
     try:
         for model, label in zip(models, labels):
             sim = Simulator(scene, model, dt=dt, **dict(settings.get(model, {})))
-            tiles.append(Tile(sim, label, opts))
+            tiles.append(Tile(sim, label, opts, drive))
     except BaseException:
         for t in tiles:
             t.close()

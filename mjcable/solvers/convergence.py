@@ -342,7 +342,7 @@ def hanging_support(scene: Scene) -> Optional[int]:
     pulley), the scene has obstacles or a user world, and most of its start segments are steeper than
     :data:`HANGING_SLOPE` (a rope over a peg, a cable draped over a bar); else ``None``."""
     weights = scene.hanging_weights if scene.pins else np.zeros(0)
-    held = any(pin.kind != "body" or weight == 0.0 for pin, weight in zip(scene.pins, weights))
+    held = any(not pin.on_body or weight == 0.0 for pin, weight in zip(scene.pins, weights))
     if held or not (scene.obstacles or scene.world is not None):
         return None
     x = np.asarray(scene.cable.particles, dtype=np.float64)

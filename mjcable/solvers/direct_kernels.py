@@ -88,6 +88,22 @@ def _banded_ldlt_substitute(band, rhs, bw):
 
 
 @_inline
+def _in_gap(seg_cable, kind, idx):
+    """Whether row ``idx`` of kind ``kind`` touches a gap segment (``seg_cable`` < 0): the rows are built once,
+    for the cables' segments, but a winch turns the segments on its spool into gaps at run time
+    (:mod:`mjcable.solvers.winch_kernels`)."""
+    if kind == ROW_STRETCH:
+        return seg_cable[idx] < 0
+    if kind == ROW_TRANSVERSE:
+        return seg_cable[idx // 2] < 0
+    if kind == ROW_DISTANCE:
+        return seg_cable[idx] < 0 or seg_cable[idx + 1] < 0
+    if kind == ROW_CURVATURE:
+        return seg_cable[idx // 3] < 0 or seg_cable[idx // 3 + 1] < 0
+    return False
+
+
+@_inline
 def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
     """Linearise every row of ``rows`` (``row_kind``, ``row_idx``, ``row_p``, ``prow``, ``pslot``, ``band``,
     ``grad``, ``rhs`` of the state, or their ``gs_`` twins) at the current x: ∇C into ``grad``, −C − α̃ λ into
@@ -112,9 +128,13 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
     band[:] = 0.0
     grad[:] = 0.0
     rho = 0.0
+    seg_cable, spools = S.seg_cable, S.winch_pin.shape[0] > 0
     for r in range(nrow):  # C, ∇C and α̃ of every row
         kind = row_kind[r]
         idx = row_idx[r]
+        if spools and _in_gap(seg_cable, kind, idx):  # a row on a winch's spool: none (Δλ = 0, _schur_assemble)
+            rhs[r] = 0.0
+            continue
         cval = 0.0
         lam = 0.0
         at = alpha_b_t
@@ -292,7 +312,7 @@ def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
         if kind != ROW_STRETCH and kind != ROW_DISTANCE:
             continue
         i, j = row_p[r, 0], row_p[r, 1]
-        if w[i] == 0.0 and w[j] == 0.0:
+        if (w[i] == 0.0 and w[j] == 0.0) or (S.winch_pin.shape[0] > 0 and _in_gap(S.seg_cable, kind, row_idx[r])):
             continue
         dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)

@@ -55,6 +55,7 @@ from mjcable.solvers.direct_kernels import banded_ldlt_solve, direct_solve  # no
 from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.impulse_kernels import collect_impulses
 from mjcable.solvers.junction_kernels import junction_begin, junction_forces, junction_sweep
+from mjcable.solvers.winch_kernels import winch_advance
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
     BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
@@ -323,7 +324,10 @@ def substep(S, sub, n_sub):
     """Substep ``sub`` of ``n_sub`` (the pins' targets interpolated across them): :func:`plain_substep` where it
     applies, else :func:`begin_substep`, ``iterations`` × :func:`iterate`, :func:`end_substep`. Returns the number of
     sockets released. Compiled once and called (not inlined) by the step loop, with or without a host world: one
-    call per substep costs nanoseconds, one copy of the substep's code less compile time."""
+    call per substep costs nanoseconds, one copy of the substep's code less compile time. Winches reel first
+    (:func:`~mjcable.solvers.winch_kernels.winch_advance`)."""
+    if S.winch_pin.shape[0]:
+        winch_advance(S)
     if is_plain(S):
         return plain_substep(S, sub, n_sub)
     begin_substep(S, sub, n_sub)
@@ -529,6 +533,8 @@ def run_phase(S, phase, sub, n_sub):
             host_end_step(S)
         return 1 if stopped else 0
     if phase == PHASE_BEGIN:
+        if S.winch_pin.shape[0]:
+            winch_advance(S)
         begin_substep(S, sub, n_sub)
         return 0
     if phase == PHASE_ITERATE:

@@ -150,7 +150,7 @@ _F1, _F2, _F3, _I1, _I2, _B1 = (_a(types.float64, 1), _a(types.float64, 2), _a(t
 
 #: The state's fields: name, numba type, and what it holds (N particles of all cables, n = N − 1 segments (gaps
 #: between cables included), P pins, K clamps, R direct rows, B obstacles, C/S obstacle/self contact capacity (in
-#: the topology fields C: cables), L body pins, G moving geoms, J junctions).
+#: the topology fields C: cables), L body pins, G moving geoms, J junctions, W winches).
 FIELDS = (
     # the chain
     ("x", _F2, "(N, 3) m positions"), ("v", _F2, "(N, 3) m/s velocities"), ("x0", _F2, "(N, 3) m substep start"),
@@ -270,6 +270,15 @@ FIELDS = (
     ("junction_sum", _F2, "(J, 3) N Σ of the step's substep forces on b"),
     ("joined_p", _I2, "(M, 2) every pair of particles the junctions make one point (through others too): the "
      "segment pairs near them never touch"),
+    # winches (winch_kernels; every array (0, ...) without one): the pin row, the cable, which way its free part runs
+    # (+1: to higher indices), the spool's last particle, the free end, the host link of a body winch (−1: a world
+    # winch), a world winch's point, the cable's direction leaving the winch, the free part r of the first segment,
+    # the reel speed, the cable's mass per metre and segment length
+    ("winch_pin", _I1, "(W,) pin row"), ("winch_cable", _I1, "(W,) cable"), ("winch_dir", _I1, "(W,) +1 or −1"),
+    ("winch_end", _I1, "(W,) the spool's last particle"), ("winch_far", _I1, "(W,) the cable's free end"),
+    ("winch_link", _I1, "(W,) link row (−1: world)"), ("winch_at", _F2, "(W, 3) m"), ("winch_u", _F2, "(W, 3) unit"),
+    ("winch_len", _F1, "(W,) m r in [0, l0]"), ("winch_speed", _F1, "(W,) m/s (positive pays out)"),
+    ("winch_rho", _F1, "(W,) kg/m"), ("winch_l0", _F1, "(W,) m"),
 )
 
 
@@ -424,6 +433,18 @@ def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum
 
 
 @_jit
+def _winch_topology(S, winch_pin, winch_cable, winch_dir, winch_end, winch_far, winch_link):
+    S.winch_pin, S.winch_cable, S.winch_dir = winch_pin, winch_cable, winch_dir
+    S.winch_end, S.winch_far, S.winch_link = winch_end, winch_far, winch_link
+
+
+@_jit
+def _winch_motion(S, winch_at, winch_u, winch_len, winch_speed, winch_rho, winch_l0):
+    S.winch_at, S.winch_u, S.winch_len, S.winch_speed, S.winch_rho, S.winch_l0 = (winch_at, winch_u, winch_len,
+                                                                                 winch_speed, winch_rho, winch_l0)
+
+
+@_jit
 def _new():
     return structref.new(STATE_TYPE)
 
@@ -458,6 +479,8 @@ _PARTS = (
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),
     (_welds, ("weld_seg", "weld_r0", "lam_weld")),
     (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p")),
+    (_winch_topology, ("winch_pin", "winch_cable", "winch_dir", "winch_end", "winch_far", "winch_link")),
+    (_winch_motion, ("winch_at", "winch_u", "winch_len", "winch_speed", "winch_rho", "winch_l0")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

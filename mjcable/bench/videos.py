@@ -1,0 +1,146 @@
+"""A video of each bench family whose scene shows a feature at work: a rope turning a pulley, ...
+
+Each entry of :data:`VIDEOS` names a family, builds its scene, says how long its video runs and, for a scene that
+does something at run time (a winch reeling), what to do before each frame (``drive``, called with the
+Simulator). :func:`render` renders it with one model to an MP4, or with several side by side; ``mjcable render
+--family pulley --model xpbd -o pulley.mp4`` and ``scripts/render_all.py`` call it. A new family's video is one
+more entry.
+
+* ``pulley``: the Atwood machine of :mod:`mjcable.bench.pulley` with boxes of :data:`PULLEY_MASSES` (the heavy box
+  drops 0.55 m in the video's :data:`PULLEY_SECONDS`; the must-show's 2 : 1 takes 0.6 s) and a two-coloured spoke
+  across the pulley (visual only), so that the rope is seen turning it.
+
+Example::
+
+    from mjcable.bench import videos
+    videos.render("pulley", "xpbd", "pulley.mp4")
+    videos.render("pulley", ("xpbd", "joints"), "pulley_grid.mp4", seconds=1.0)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Callable, Dict, Optional, Sequence, Union
+
+import mujoco
+
+from mjcable import render as render_
+from mjcable.bench import pulley
+from mjcable.render.camera import DEFAULT_ELEVATION
+from mjcable.render.tiles import Drive
+from mjcable.scene import Scene
+
+__all__ = ["FamilyVideo", "VIDEOS", "names", "get", "render", "pulley_scene", "PULLEY_MASSES", "PULLEY_SECONDS",
+           "SPOKE_COLOURS"]
+
+PULLEY_MASSES = (1.1, 1.0)  # kg: a ≈ g (m₁ − m₂) / (m₁ + m₂ + I / R_c²) = 0.38 m/s²
+PULLEY_SECONDS = 1.7  # s: the heavy box drops 0.55 m of its 0.6 m leg difference
+PULLEY_ELEVATION = 10.0  # degrees: nearly level, looking along the pulley's axis at its face
+SPOKE_COLOURS = {"blue": (0.1, 0.3, 0.9, 1.0), "green": (0.1, 0.8, 0.2, 1.0)}  # no other geom or cable is either
+_SPOKE_LENGTH = 0.9  # of the pulley's radius, each half
+_SPOKE_HALF_WIDTH = 0.015  # m
+_SPOKE_PROUD = 0.002  # m the spoke stands out of the pulley's faces, so that it shows on them
+
+
+@dataclasses.dataclass(frozen=True)
+class FamilyVideo:
+    """How to film one bench family.
+
+    Attributes:
+      name: the family's name (the key of :data:`VIDEOS`).
+      description: one line for listings.
+      make_scene: ``() → Scene``, the scene filmed.
+      seconds: the video's default length, simulated seconds.
+      elevation: the tracking camera's angle above the horizon, degrees.
+      drive: ``drive(simulator)`` before each frame's step, for a scene that does something at run time; ``None``:
+        nothing.
+    """
+
+    name: str
+    description: str
+    make_scene: Callable[[], Scene]
+    seconds: float
+    elevation: float = DEFAULT_ELEVATION
+    drive: Optional[Drive] = None
+
+
+def pulley_scene() -> pulley.AtwoodScene:
+    """:func:`mjcable.bench.pulley.atwood_scene` with boxes of :data:`PULLEY_MASSES` and a spoke across the pulley,
+    blue from its axis towards the rim on one side and green on the other (:data:`SPOKE_COLOURS`), touching nothing
+    and adding no mass (the pulley's inertial is explicit): the line from the green half to the blue one shows the
+    pulley's turn (its body's x axis)."""
+    scene = pulley.atwood_scene(masses=PULLEY_MASSES)
+    spec = scene.world.spec()
+    body = next(b for b in spec.bodies if b.name == scene.pulley)
+    half = 0.5 * _SPOKE_LENGTH * pulley.PULLEY_RADIUS
+    for side, (colour, rgba) in zip((1.0, -1.0), SPOKE_COLOURS.items()):
+        body.add_geom(name=f"{scene.pulley}_spoke_{colour}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                      pos=[side * half, 0.0, 0.0], size=[half, _SPOKE_HALF_WIDTH, 0.5 * pulley.PULLEY_WIDTH +
+                                                         _SPOKE_PROUD],
+                      contype=0, conaffinity=0, rgba=list(rgba))
+    return dataclasses.replace(scene, world=spec)
+
+
+VIDEOS: Dict[str, FamilyVideo] = {
+    v.name: v
+    for v in (
+        FamilyVideo("pulley", "the Atwood machine over a pulley on a frictionless hinge: the rope turns the pulley",
+                    pulley_scene, seconds=PULLEY_SECONDS, elevation=PULLEY_ELEVATION),
+    )
+}
+
+
+def names() -> tuple:
+    """The families with a video."""
+    return tuple(VIDEOS)
+
+
+def get(name: str) -> FamilyVideo:
+    """The video entry of family ``name``.
+
+    Raises:
+      ValueError: no family of that name has a video.
+    """
+    if not isinstance(name, str) or name not in VIDEOS:
+        raise ValueError(f"name must be one of the families with a video {names()}, got {name!r}")
+    return VIDEOS[name]
+
+
+def render(name: str, models: Union[str, Sequence[str]], path, *, seconds: Optional[float] = None, fps: int = 30,
+           width: Optional[int] = None, height: Optional[int] = None, dt: float = 0.002,
+           camera: str = render_.TRACK, stripe: bool = False, progress: Optional[bool] = None,
+           **settings) -> Path:
+    """Render family ``name``'s video to an MP4 file, atomically: one model (:func:`mjcable.render.render_video`),
+    or several side by side (:func:`mjcable.render.render_grid`).
+
+    Args:
+      name: one of :func:`names`.
+      models: a model name, or a sequence of them (each once).
+      path: the ``.mp4`` file to write (its folder must exist).
+      seconds: simulated (and video) seconds; default the family's.
+      fps: frames per second.
+      width, height: frame size in pixels, per tile side by side (even); default 640 × 480 for one model, 320 × 240
+        per tile.
+      dt: the simulators' step in seconds.
+      camera: ``"track"`` or a camera of the models.
+      stripe: draw a stripe along the cable's material frame (models with frames), so that twist shows.
+      progress: show a progress bar (``None``: for long renders on a terminal).
+      **settings: the models' settings (every model gets the same).
+
+    Returns:
+      The path written.
+
+    Raises:
+      ValueError: an unknown family or model, or a bad render argument (named by the render function).
+    """
+    video = get(name)
+    seconds = video.seconds if seconds is None else seconds
+    options = dict(seconds=seconds, fps=fps, dt=dt, camera=camera, elevation=video.elevation, stripe=stripe,
+                   progress=progress, drive=video.drive)
+    if isinstance(models, str):
+        size = dict(width=640 if width is None else width, height=480 if height is None else height)
+        return render_.render_video(video.make_scene(), models, path, **size, **options, **settings)
+    size = dict(tile_width=320 if width is None else width, tile_height=240 if height is None else height)
+    return render_.render_grid(video.make_scene(), list(models), path, **size, **options,
+                               settings={m: settings for m in models} if settings else None)

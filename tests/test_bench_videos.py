@@ -1,0 +1,59 @@
+"""The bench families' videos (:mod:`mjcable.bench.videos`; issue 23, item 5): the pulley's video, rendered through
+``mjcable render --family``, read back with imageio-ffmpeg's own reader, shows the pulley turning as the rope's
+Atwood machine turns it (the heavy-rope reference, :func:`mjcable.bench.pulley.heavy_rope_drop`, over R_c)."""
+
+from __future__ import annotations
+
+import math
+
+import imageio_ffmpeg
+import numpy as np
+import pytest
+
+from mjcable import cli
+from mjcable.bench import pulley, videos
+
+SECONDS, FPS, WIDTH, HEIGHT = 1.0, 10, 320, 240
+ANGLE_TOLERANCE = 6.0  # degrees: the spoke's halves are ~15 pixels long at this size (H.264 blurs their edges)
+
+
+def _colour_mask(image: np.ndarray, colour: str) -> np.ndarray:
+    """Pixels of one half of the spoke: its channel well above the other two (nothing else in the scene is blue or
+    green; the cable is red, the boxes orange, the pulley grey)."""
+    rgb = image.astype(np.int32)
+    main = {"blue": 2, "green": 1}[colour]
+    others = [c for c in range(3) if c != main]
+    return (rgb[..., main] - rgb[..., others[0]] > 60) & (rgb[..., main] - rgb[..., others[1]] > 40)
+
+
+def _spoke_angle(image: np.ndarray) -> float:
+    """Degrees, counter-clockwise in the image from its +x (rightwards): the direction from the green half's centroid
+    to the blue half's, the pulley body's x axis seen along the axis."""
+    (by, bx), (gy, gx) = (np.nonzero(_colour_mask(image, c)) for c in ("blue", "green"))
+    assert by.size > 10 and gy.size > 10  # both halves are in view
+    return math.degrees(math.atan2(-(by.mean() - gy.mean()), bx.mean() - gx.mean()))  # image rows grow downwards
+
+
+@pytest.mark.slow
+def test_the_pulley_video_shows_the_rope_turning_the_pulley(tmp_path):
+    path = tmp_path / "pulley.mp4"
+    assert cli.main(["render", "--family", "pulley", "--model", "xpbd", "-o", str(path), "--seconds", str(SECONDS),
+                     "--fps", str(FPS), "--width", str(WIDTH), "--height", str(HEIGHT)]) == cli.EXIT_OK
+    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")  # an independent reader of the file
+    meta = next(reader)
+    images = [np.frombuffer(frame, np.uint8).reshape(HEIGHT, WIDTH, 3) for frame in reader]
+    reader.close()
+    assert meta["codec"] == "h264" and tuple(meta["size"]) == (WIDTH, HEIGHT)
+    assert meta["fps"] == pytest.approx(FPS) and len(images) == round(SECONDS * FPS)
+    scene = videos.pulley_scene()
+    times = np.arange(len(images)) / FPS  # frame k shows the simulation at k / fps
+    # the heavy box on the left falls: seen along +y the pulley turns counter-clockwise, by the rope's run over R_c
+    expected = np.degrees(pulley.heavy_rope_drop(times, scene) / scene.contact_radius)
+    assert expected[-1] > 60.0  # a turn that the spoke's pixels resolve many times over
+    turned = np.unwrap(np.radians([_spoke_angle(image) for image in images]))
+    np.testing.assert_allclose(np.degrees(turned), expected, rtol=0.0, atol=ANGLE_TOLERANCE)
+
+
+def test_unknown_family_is_named():
+    with pytest.raises(ValueError, match=r"name must be one of the families with a video \('pulley'"):
+        videos.get("winch_that_is_not")
