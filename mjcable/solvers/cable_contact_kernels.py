@@ -17,8 +17,11 @@ the thesis, §4.2): a speculative contact, so that a segment found within the st
 other within the step. Coulomb friction, capped at μ λₙ (kinetic beyond), with μ the larger of the two cables'
 coefficients (the stickier surface decides, as MuJoCo's default of the larger geom friction): between two cables
 against an anchor kept across substeps and steps (:func:`_anchored_friction`: the two material points that touched
-are held together, so that a rope resting on a cable does not creep), within one cable on the relative tangential
-slip of the two axis points since the substep began ([M20]'s static friction).
+are held together, so that a rope resting on a cable does not creep), after all the sweep's normals and in a cone of
+the normal load pooled over the contacts on the contact's particles (:func:`_pooled_load`: a Gauss-Seidel sweep
+splits a particle's load unevenly between its contacts, as it does on obstacles,
+:mod:`mjcable.solvers.contact_kernels`); within one cable on the relative tangential slip of the two axis points
+since the substep began ([M20]'s static friction).
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -268,10 +271,11 @@ def self_contact_sweep(S):
     """The state's segment contacts (``par.n_self`` of them: a cable's own and those between cables) of segments
     (i, i+1) and (j, j+1) (``self_pair``) at fractions s, t (``self_st``) and the unit normal n from segment j to
     segment i (``self_normal``), found once per step and renewed before each projection (:func:`_remeasure`):
-    C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb
-    friction μ (the larger of the two cables', ``cable_mu``): between two cables against the pair's anchor
-    (:func:`_anchored_friction`), within one on the relative tangential slip of the two axis points since the substep
-    began ([M20]'s static friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``, ``self_lam_t``."""
+    C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four particles moving with Jakobsen's segment weights ([J01];
+    the pairwise scheme of the thesis, §4.2). Coulomb friction μ (the larger of the two cables', ``cable_mu``):
+    between two cables against the pair's anchor after all the normals (:func:`_cable_friction`), within one on the
+    relative tangential slip of the two axis points since the substep began, right after the pair's normal ([M20]'s
+    static friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``, ``self_lam_t``."""
     P = S.par[0]
     gap = 2.0 * P.radius
     x, x0, w, react, seg_cable, cable_mu = S.x, S.x0, S.w, S.react, S.seg_cable, S.cable_mu
@@ -296,10 +300,7 @@ def self_contact_sweep(S):
             dlam = -cval / wsum
             lam_n[c] += dlam
             _move_pair(x, w, react, i, j, weights, dlam, (nx, ny, nz))
-        if mu <= 0.0 or lam_n[c] <= 0.0:
-            continue
-        if seg_cable[i] != seg_cable[j]:  # two cables: friction holds the anchored material points together
-            _anchored_friction(S, c, mu * lam_n[c] - lam_t[c], nx, ny, nz)
+        if mu <= 0.0 or lam_n[c] <= 0.0 or seg_cable[i] != seg_cable[j]:  # (two cables: after the loop)
             continue
         ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
         for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
@@ -315,6 +316,64 @@ def self_contact_sweep(S):
         dlam_t = min(slip / wsum, budget)
         lam_t[c] += dlam_t
         _move_pair(x, w, react, i, j, weights, -dlam_t / slip, (tx, ty, tz))
+    if P.cable_contact:
+        _cable_friction(S)
+
+
+@_inline
+def _cable_friction(S):
+    """Friction of the contacts between two cables after all their normals (:func:`self_contact_sweep`): each against
+    its anchor (:func:`_anchored_friction`), in a cone of the pooled normal load (:func:`_pooled_load`) less what the
+    substep's iterations applied. The particles' sums ``cable_load`` are rebuilt from the contacts' multipliers (the
+    rows of the contacts' particles zeroed first: a particle without such a contact keeps a stale row no one reads)."""
+    pair, st, normal, lam_n, lam_t, seg_cable, cable_mu, load = (S.self_pair, S.self_st, S.self_normal, S.self_lam_n,
+                                                                 S.self_lam_t, S.seg_cable, S.cable_mu, S.cable_load)
+    n_self = S.par[0].n_self
+    for c in range(n_self):
+        i, j = pair[c, 0], pair[c, 1]
+        for p in (i, i + 1, j, j + 1):
+            load[p, 0] = load[p, 1] = 0.0
+    for c in range(n_self):
+        i, j = pair[c, 0], pair[c, 1]
+        if seg_cable[i] == seg_cable[j] or lam_n[c] <= 0.0:
+            continue
+        s, t = st[c, 0], st[c, 1]
+        for p, f in ((i, 1.0 - s), (i + 1, s), (j, 1.0 - t), (j + 1, t)):
+            load[p, 0] += f * lam_n[c]
+            load[p, 1] += f
+    for c in range(n_self):
+        i, j = pair[c, 0], pair[c, 1]
+        mu = max(cable_mu[seg_cable[i]], cable_mu[seg_cable[j]])
+        if seg_cable[i] == seg_cable[j] or lam_n[c] <= 0.0 or mu <= 0.0:
+            continue
+        budget = mu * _pooled_load(load, i, j, st[c, 0], st[c, 1]) - lam_t[c]
+        _anchored_friction(S, c, budget, normal[c, 0], normal[c, 1], normal[c, 2])
+
+
+@_inline
+def _pooled_load(load, i, j, s, t):
+    """kg·m: the normal multiplier of Coulomb's cone of the pressing contact of segments i and j at fractions s, t
+    between two cables: the mean λₙ of the contacts on its particles, weighted by the particles' shares ((1 − s, s)
+    on segment i, (1 − t, t) on j; ``load`` (N, 2) each particle's Σ share · λₙ and Σ share over its contacts with
+    other cables), on the cable whose particles there carry the fewer contacts (both cables' mean on a tie).
+
+    A Gauss-Seidel sweep splits the normal load of a particle between its two contacts unevenly (the first
+    projected takes the most, its neighbour the rest: big and small in turn along a wrap), while the particle's sum
+    is exact; a cone of the contact's own λₙ then lets the small ones slide while the big ones hold
+    (``docs/measurements.md``).
+    Along a chain of contacts this mean is ¼ λ_{c−1} + ½ λ_c + ¼ λ_{c+1}, which removes the alternation and keeps
+    the sum and a steady change of the load along the wrap. On the other cable a particle can carry the whole wrap
+    (a rope across a cable touches one or two of its segments with every chord), whose mean would be the wrap's,
+    not the contact's."""
+    wa = (1.0 - s) * load[i, 1] + s * load[i + 1, 1]
+    wb = (1.0 - t) * load[j, 1] + t * load[j + 1, 1]
+    la = ((1.0 - s) * load[i, 0] + s * load[i + 1, 0]) / wa
+    lb = ((1.0 - t) * load[j, 0] + t * load[j + 1, 0]) / wb
+    if wa < wb:
+        return la
+    if wb < wa:
+        return lb
+    return 0.5 * (la + lb)
 
 
 @_inline

@@ -267,6 +267,8 @@ FIELDS = (
     ("junction_sum", _F2, "(J, 3) N Σ of the step's substep forces on b"),
     ("joined_p", _I2, "(M, 2) every pair of particles the junctions make one point (through others too): the "
      "segment pairs near them never touch"),
+    ("cable_load", _F2, "(N, 2) kg·m, 1: a particle's Σ share · λₙ and Σ share over its pressing contacts with other "
+     "cables, the pooled friction cones' sums (cable_contact_kernels)"),
 )
 
 
@@ -410,9 +412,10 @@ def _frame_scratch(S, clamp_seg, clamp_q, clamp_qfrom, clamp_qto, clamp_react, c
 
 
 @_jit
-def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p):
+def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p, cable_load):
     S.seg_cable, S.chain_seg, S.cable_mu = seg_cable, chain_seg, cable_mu
     S.junction_p, S.lam_j, S.junction_sum, S.joined_p = junction_p, lam_j, junction_sum, joined_p
+    S.cable_load = cable_load
 
 
 @_jit
@@ -448,7 +451,8 @@ _PARTS = (
     (_frames, ("q", "q0", "omega", "inertia", "wq", "darboux0", "lam_ss", "lam_bt", "lam_end")),
     (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "clamp_wq", "end_clamp",
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),
-    (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p")),
+    (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p",
+                 "cable_load")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

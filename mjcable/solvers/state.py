@@ -49,7 +49,8 @@ class Rules:
         sequentially after it (PBD and Jakobsen: hard rows scaled by a stiffness do not form a solvable system).
       geometric_stiffness: with ``order="direct"``, the stretch rows' geometric stiffness λ ∇²C where the tension
         needs it (a KKT solve in positions and multipliers, :mod:`mjcable.solvers.direct_kernels`): for multipliers
-        that are forces (XPBD, k = 1).
+        that are forces, k = 1 (XPBD; PBD and Jakobsen at ``stretch_factor`` 1, whose stretch rows are then XPBD's
+        at α = 0).
       rod_compliance: a Cosserat rod's six compliances (stretch–shear: shear, shear, stretch in 1/(N·m);
         bend–twist: bend, bend, twist in 1/(N·m³); :mod:`mjcable.solvers.cosserat_kernels`), which gives every
         segment a material frame; ``None``: no frames (the state's frame fields are empty).
@@ -174,7 +175,8 @@ def topology(scene: Scene) -> dict:
     """The state's topology fields of ``scene``'s cables (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the
     cable of each segment ``seg_cable`` (n,) (−1: the gap from one cable's last particle to the next one's first),
     each cable's segments ``chain_seg`` (C, 2) [first, stop), its μ ``cable_mu`` (C,), the junctions' particles
-    ``junction_p`` (J, 2), their multipliers and force sums, and the pairs of particles they join ``joined_p``.
+    ``junction_p`` (J, 2), their multipliers and force sums, the pairs of particles they join ``joined_p``, and the
+    particles' sums of the pooled friction cones between cables ``cable_load`` (N, 2).
 
     Raises:
       ValueError: a clamped junction (the particle solvers join particles, not tangents)."""
@@ -194,7 +196,7 @@ def topology(scene: Scene) -> dict:
     return dict(seg_cable=seg_cable, chain_seg=chain_seg,
                 cable_mu=np.array([c.friction for c in scene.cables], dtype=np.float64), junction_p=junction_p,
                 lam_j=np.zeros((len(junction_p), 3)), junction_sum=np.zeros((len(junction_p), 3)),
-                joined_p=_joined_pairs(junction_p))
+                joined_p=_joined_pairs(junction_p), cable_load=np.zeros((scene.n_particles, 2)))
 
 
 def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
