@@ -58,6 +58,10 @@ Shapes = namedtuple("Shapes", ("type", "size", "pos", "rot"))
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
 _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
+# the columns of a contact between two cables' row of self_anchor: the anchor's fractions s, t and normal (5), and
+# the contact's normal multiplier at the end of the last sweep (cable_contact_kernels._pool_loads)
+ANCHOR_COLUMNS = 6
+POOL_COLUMN = 5
 # m/s: the fastest a static obstacle pushes out a depth that its contact point already had when the substep began (a
 # start that cuts into it, or what a sweep after the contacts left): removed in one substep it would leave as a
 # velocity of depth / h, 2.4 m/s for 0.3 mm at h = 0.125 ms (contact_kernels.contact_sweep, docs/measurements.md)
@@ -196,8 +200,9 @@ FIELDS = (
     ("self_pair", _I2, "(S, 2) segments i, j"), ("self_st", _F2, "(S, 2) fractions s, t of the closest points"),
     ("self_normal", _F2, "(S, 3) unit normal from segment j to segment i"),
     ("self_lam_n", _F1, "(S,) kg·m normal multipliers"), ("self_lam_t", _F1, "(S,) kg·m friction multipliers"),
-    ("self_anchor", _F2, "(S, 5) a contact between two cables' friction anchor, kept across steps: the fractions s, "
-     "t of the points that touched and the normal then (cable_contact_kernels)"),
+    ("self_anchor", _F2, "(S, 6) a contact between two cables' friction anchor, kept across steps: the fractions s, "
+     "t of the points that touched and the normal then, and its λₙ at the end of the last sweep "
+     "(cable_contact_kernels)"),
     # obstacle shapes (B rows; contacts and anchors name their row)
     ("shape_type", _I1, "(B,) MuJoCo geom type (mjtGeom)"), ("shape_size", _F2, "(B, 3) m geom size"),
     ("shape_pos", _F2, "(B, 3) m world position"), ("shape_rot", _F3, "(B, 3, 3) world rotation (geom to world)"),

@@ -141,7 +141,7 @@ def _contact_buffers(capacity: int, self_capacity: int) -> dict:
                 con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64),
                 self_st=np.zeros((s, 2)),
                 self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s),
-                self_anchor=np.zeros((s, 5)))
+                self_anchor=np.zeros((s, layout.ANCHOR_COLUMNS)))
 
 
 #: how a cable's property that the parameter record holds once for all cables is read (:func:`shared_cable`)
