@@ -17,14 +17,15 @@ the thesis, §4.2): a speculative contact, so that a segment found within the st
 other within the step. One pass over the pairs leaves depth where many of them compete (a cable whipping round
 another): a sweep whose projections removed more than ``par.impact_speed`` · h (a strike, not a resting contact's
 g h²) projects the normals again, without friction, until they hold within ``par.impact_tol``, at most
-``par.impact_iterations`` times, so that the sweep ends with its contacts held. Coulomb friction, capped at μ λₙ (kinetic beyond), with μ the larger of the two cables'
-coefficients (the stickier surface decides, as MuJoCo's default of the larger geom friction): between two cables
-against an anchor kept across substeps and steps (:func:`_anchored_friction`: the two material points that touched
-are held together, so that a rope resting on a cable does not creep), in a cone of the normal load pooled over the
-contacts on the contact's particles in the last sweep (:func:`_pooled_load`: a Gauss-Seidel sweep splits a
-particle's load unevenly between its contacts, as it does on obstacles, :mod:`mjcable.solvers.contact_kernels`);
-within one cable on the relative tangential slip of the two axis points
-since the substep began ([M20]'s static friction).
+``par.impact_iterations`` times, so that the sweep ends with its contacts held.
+
+**Friction.** Coulomb friction, capped at μ λₙ (kinetic beyond), with μ the larger of the two cables' coefficients
+(the stickier surface decides, as MuJoCo's default of the larger geom friction): between two cables against an
+anchor kept across substeps and steps (:func:`_anchored_friction`: the two material points that touched are held
+together, so that a rope resting on a cable does not creep), in a cone of the normal load pooled over the contacts
+on the contact's particles in the last sweep (:func:`_pooled_load`: a Gauss-Seidel sweep splits a particle's load
+unevenly between its contacts, as it does on obstacles, :mod:`mjcable.solvers.contact_kernels`); within one cable on
+the relative tangential slip of the two axis points since the substep began ([M20]'s static friction).
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -300,8 +301,9 @@ def self_contact_sweep(S):
         a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
         weights = (a0, a1, b0, b1)
         if seg_cable[i] != seg_cable[j]:  # two cables: friction holds the anchored material points together
-            # pooled over the last sweep's contacts, where this one pressed in it too (_pooled_load)
-            cone = _pooled_load(S.cable_load, i, j, s, t) if S.self_anchor[c, POOL_COLUMN] > 0.0 else lam_n[c]
+            cone = lam_n[c]  # pooled over the last sweep's contacts, where this one pressed in it too
+            if S.self_anchor[c, POOL_COLUMN] > 0.0:
+                cone = _pooled_load(S.cable_load, i, j, s, t, cone)
             _anchored_friction(S, c, mu * cone - lam_t[c], nx, ny, nz)
             continue
         ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
@@ -377,7 +379,7 @@ def _pool_loads(S):
 
 
 @_inline
-def _pooled_load(load, i, j, s, t):
+def _pooled_load(load, i, j, s, t, own):
     """kg·m: the normal load of Coulomb's cone of a pressing contact of segments i and j at fractions s, t between
     two cables: the mean λₙ of the contacts on its particles, weighted by the particles' shares ((1 − s, s) on
     segment i, (1 − t, t) on j; ``load`` (N, 2), :func:`_pool_loads`), on the cable whose particles there carry the
@@ -391,9 +393,12 @@ def _pooled_load(load, i, j, s, t):
     can carry the whole wrap (a rope across a cable touches one or two of its segments with every chord), whose mean
     would be the wrap's, not the contact's. The sums are the last sweep's (the last iteration's, or the last
     substep's: friction follows each contact's normal in the sweep), and a contact that did not press in it has its
-    own λₙ (a contact that just began to press would take its neighbours' loads)."""
+    own λₙ (``own``; a contact that just began to press would take its neighbours' loads), as has one whose point
+    moved onto a particle without loads since (a fraction from 0 to 1)."""
     wa = (1.0 - s) * load[i, 1] + s * load[i + 1, 1]
     wb = (1.0 - t) * load[j, 1] + t * load[j + 1, 1]
+    if wa <= 0.0 or wb <= 0.0:
+        return own
     la = ((1.0 - s) * load[i, 0] + s * load[i + 1, 0]) / wa
     lb = ((1.0 - t) * load[j, 0] + t * load[j + 1, 0]) / wb
     if wa < wb:
