@@ -14,11 +14,18 @@ than that never touch (they would push the junction apart). The gap segments bet
 (:func:`_remeasure`), with the unit normal n from segment j to segment i, is
 C = n·(pᵢ − pⱼ) − 2r ≥ 0 with the four particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of
 the thesis, §4.2): a speculative contact, so that a segment found within the step's travel cannot pass through the
-other within the step. Coulomb friction, capped at μ λₙ (kinetic beyond), with μ the larger of the two cables'
-coefficients (the stickier surface decides, as MuJoCo's default of the larger geom friction): between two cables
-against an anchor kept across substeps and steps (:func:`_anchored_friction`: the two material points that touched
-are held together, so that a rope resting on a cable does not creep), within one cable on the relative tangential
-slip of the two axis points since the substep began ([M20]'s static friction).
+other within the step. One pass over the pairs leaves depth where many of them compete (a cable whipping round
+another): a sweep whose projections removed more than ``par.impact_speed`` · h (a strike, not a resting contact's
+g h²) projects the normals again, without friction, until they hold within ``par.impact_tol``, at most
+``par.impact_iterations`` times, so that the sweep ends with its contacts held.
+
+**Friction.** Coulomb friction, capped at μ λₙ (kinetic beyond), with μ the larger of the two cables' coefficients
+(the stickier surface decides, as MuJoCo's default of the larger geom friction): between two cables against an
+anchor kept across substeps and steps (:func:`_anchored_friction`: the two material points that touched are held
+together, so that a rope resting on a cable does not creep), in a cone of the normal load pooled over the contacts
+on the contact's particles in the last sweep (:func:`_pooled_load`: a Gauss-Seidel sweep splits a particle's load
+unevenly between its contacts, as it does on obstacles, :mod:`mjcable.solvers.contact_kernels`); within one cable on
+the relative tangential slip of the two axis points since the substep began ([M20]'s static friction).
 
 References:
   [E05] C. Ericson, "Real-Time Collision Detection", 2005, §5.1.9 (closest points of two segments).
@@ -34,7 +41,7 @@ import math
 import numpy as np
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit, nogil as _nogil
-from mjcable.solvers.kernels_layout import _TINY_LENGTH, _TINY_SLIP
+from mjcable.solvers.kernels_layout import _TINY_LENGTH, _TINY_SLIP, ANCHOR_COLUMNS, POOL_COLUMN
 
 __all__ = ["segment_closest", "find_self_contacts", "self_contacts", "self_contact_sweep"]
 
@@ -202,7 +209,7 @@ def self_contacts(S, reach):
         S.self_normal = np.zeros((cap, 3))
         S.self_lam_n = np.zeros(cap)
         S.self_lam_t = np.zeros(cap)
-        S.self_anchor = np.zeros((cap, 5))
+        S.self_anchor = np.zeros((cap, ANCHOR_COLUMNS))
         count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal, *args)
     if P.cable_contact:
         _keep_anchors(S, count, last)
@@ -224,10 +231,11 @@ def _keep_anchors(S, count, last):
             k += 1
         if (k < old_pair.shape[0] and old_pair[k, 0] == i and old_pair[k, 1] == j and old_lam[k] >= 0.0
                 and seg_cable[i] != seg_cable[j]):
-            for col in range(5):
+            for col in range(ANCHOR_COLUMNS):
                 anchor[c, col] = old_anchor[k, col]
         else:
             _anchor_at(S, c)
+            anchor[c, POOL_COLUMN] = 0.0
 
 
 @_inline
@@ -268,38 +276,35 @@ def self_contact_sweep(S):
     """The state's segment contacts (``par.n_self`` of them: a cable's own and those between cables) of segments
     (i, i+1) and (j, j+1) (``self_pair``) at fractions s, t (``self_st``) and the unit normal n from segment j to
     segment i (``self_normal``), found once per step and renewed before each projection (:func:`_remeasure`):
-    C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of the thesis, §4.2). Coulomb
-    friction μ (the larger of the two cables', ``cable_mu``): between two cables against the pair's anchor
-    (:func:`_anchored_friction`), within one on the relative tangential slip of the two axis points since the substep
-    began ([M20]'s static friction, capped at μ λₙ: kinetic beyond). Multipliers ``self_lam_n``, ``self_lam_t``."""
+    C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four particles moving with Jakobsen's segment weights ([J01];
+    the pairwise scheme of the thesis, §4.2). Coulomb friction μ (the larger of the two cables', ``cable_mu``):
+    between two cables against the pair's anchor (:func:`_anchored_friction`) in a cone of the normal load pooled
+    over the contacts on its particles in the last sweep (:func:`_pooled_load`; renewed when this sweep ends,
+    :func:`_pool_loads`), within one on the relative tangential slip of the two axis points since
+    the substep began ([M20]'s static friction, capped at μ λₙ: kinetic beyond), each right after the pair's normal.
+    Multipliers ``self_lam_n``, ``self_lam_t``."""
     P = S.par[0]
     gap = 2.0 * P.radius
     x, x0, w, react, seg_cable, cable_mu = S.x, S.x0, S.w, S.react, S.seg_cable, S.cable_mu
     pair, st, normal, lam_n, lam_t = S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t
+    deepest = 0.0  # the most depth one projection removed
     for c in range(P.n_self):
         i = pair[c, 0]
         j = pair[c, 1]
         mu = max(cable_mu[seg_cable[i]], cable_mu[seg_cable[j]])
-        _remeasure(x, i, j, st, normal, c)  # the pair's closest points now
+        wsum, removed = _project_normal(S, c, gap)
+        deepest = max(deepest, removed)
+        if wsum == 0.0 or mu <= 0.0 or lam_n[c] <= 0.0:
+            continue
         s, t = st[c, 0], st[c, 1]
         nx, ny, nz = normal[c, 0], normal[c, 1], normal[c, 2]
         a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
         weights = (a0, a1, b0, b1)
-        wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
-        if wsum == 0.0:
-            continue
-        cval = -gap
-        cval += nx * (a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0])
-        cval += ny * (a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1])
-        cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
-        if cval < 0.0:
-            dlam = -cval / wsum
-            lam_n[c] += dlam
-            _move_pair(x, w, react, i, j, weights, dlam, (nx, ny, nz))
-        if mu <= 0.0 or lam_n[c] <= 0.0:
-            continue
         if seg_cable[i] != seg_cable[j]:  # two cables: friction holds the anchored material points together
-            _anchored_friction(S, c, mu * lam_n[c] - lam_t[c], nx, ny, nz)
+            cone = lam_n[c]  # pooled over the last sweep's contacts, where this one pressed in it too
+            if S.self_anchor[c, POOL_COLUMN] > 0.0:
+                cone = _pooled_load(S.cable_load, i, j, s, t, cone)
+            _anchored_friction(S, c, mu * cone - lam_t[c], nx, ny, nz)
             continue
         ux = uy = uz = 0.0  # relative slip of the two axis points since the substep began
         for p, f in ((i, a0), (i + 1, a1), (j, b0), (j + 1, b1)):
@@ -315,6 +320,92 @@ def self_contact_sweep(S):
         dlam_t = min(slip / wsum, budget)
         lam_t[c] += dlam_t
         _move_pair(x, w, react, i, j, weights, -dlam_t / slip, (tx, ty, tz))
+    if P.cable_contact:
+        _pool_loads(S)
+    if deepest > P.impact_speed * P.h:  # struck: the normals again until they hold (the module docstring)
+        for _ in range(P.impact_iterations):
+            removed = 0.0
+            for c in range(P.n_self):
+                removed = max(removed, _project_normal(S, c, gap)[1])
+            if removed <= P.impact_tol:
+                break
+
+
+@_inline
+def _project_normal(S, c, gap):
+    """Contact ``c``'s normal projection at the pair's closest points now (:func:`_remeasure`), C = n·(pᵢ − pⱼ) − gap
+    ≥ 0, adding to ``self_lam_n[c]``. Returns (Σ w ∇C², 0 where both segments are held and nothing is done; the
+    depth it removed, m)."""
+    x, w, react, pair, st, normal = S.x, S.w, S.react, S.self_pair, S.self_st, S.self_normal
+    i, j = pair[c, 0], pair[c, 1]
+    _remeasure(x, i, j, st, normal, c)
+    s, t = st[c, 0], st[c, 1]
+    nx, ny, nz = normal[c, 0], normal[c, 1], normal[c, 2]
+    a0, a1, b0, b1 = 1.0 - s, s, -(1.0 - t), -t
+    wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
+    if wsum == 0.0:
+        return 0.0, 0.0
+    cval = -gap
+    cval += nx * (a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0])
+    cval += ny * (a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1])
+    cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
+    if cval >= 0.0:
+        return wsum, 0.0
+    dlam = -cval / wsum
+    S.self_lam_n[c] += dlam
+    _move_pair(x, w, react, i, j, (a0, a1, b0, b1), dlam, (nx, ny, nz))
+    return wsum, -cval
+
+
+@_jit
+def _pool_loads(S):
+    """At the end of a sweep: the particles' sums ``cable_load`` (N, 2), Σ share · λₙ and Σ share over their
+    pressing contacts with other cables (shares (1 − s, s) and (1 − t, t)), and each such contact's λₙ in column
+    ``POOL_COLUMN`` of ``self_anchor``: the next sweep's cones (:func:`_pooled_load`)."""
+    pair, st, lam_n, seg_cable, load, anchor = (S.self_pair, S.self_st, S.self_lam_n, S.seg_cable, S.cable_load,
+                                                S.self_anchor)
+    load[:, :] = 0.0
+    for c in range(S.par[0].n_self):
+        i, j = pair[c, 0], pair[c, 1]
+        if seg_cable[i] == seg_cable[j]:
+            continue
+        anchor[c, POOL_COLUMN] = max(lam_n[c], 0.0)
+        if lam_n[c] <= 0.0:
+            continue
+        s, t = st[c, 0], st[c, 1]
+        for p, f in ((i, 1.0 - s), (i + 1, s), (j, 1.0 - t), (j + 1, t)):
+            load[p, 0] += f * lam_n[c]
+            load[p, 1] += f
+
+
+@_inline
+def _pooled_load(load, i, j, s, t, own):
+    """kg·m: the normal load of Coulomb's cone of a pressing contact of segments i and j at fractions s, t between
+    two cables: the mean λₙ of the contacts on its particles, weighted by the particles' shares ((1 − s, s) on
+    segment i, (1 − t, t) on j; ``load`` (N, 2), :func:`_pool_loads`), on the cable whose particles there carry the
+    fewer contacts (both cables' mean on a tie).
+
+    A Gauss-Seidel sweep splits the normal load of a particle between its two contacts unevenly (the first
+    projected takes the most, its neighbour the rest: big and small in turn along a wrap), while the particle's sum
+    is exact; a cone of the contact's own λₙ then lets the small ones slide while the big ones hold
+    (``docs/measurements.md``). Along a chain of contacts this mean is ¼ λ_{c−1} + ½ λ_c + ¼ λ_{c+1}, which removes
+    the alternation and keeps the sum and a steady change of the load along the wrap. On the other cable a particle
+    can carry the whole wrap (a rope across a cable touches one or two of its segments with every chord), whose mean
+    would be the wrap's, not the contact's. The sums are the last sweep's (the last iteration's, or the last
+    substep's: friction follows each contact's normal in the sweep), and a contact that did not press in it has its
+    own λₙ (``own``; a contact that just began to press would take its neighbours' loads), as has one whose point
+    moved onto a particle without loads since (a fraction from 0 to 1)."""
+    wa = (1.0 - s) * load[i, 1] + s * load[i + 1, 1]
+    wb = (1.0 - t) * load[j, 1] + t * load[j + 1, 1]
+    if wa <= 0.0 or wb <= 0.0:
+        return own
+    la = ((1.0 - s) * load[i, 0] + s * load[i + 1, 0]) / wa
+    lb = ((1.0 - t) * load[j, 0] + t * load[j + 1, 0]) / wb
+    if wa < wb:
+        return la
+    if wb < wa:
+        return lb
+    return 0.5 * (la + lb)
 
 
 @_inline

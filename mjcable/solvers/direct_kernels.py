@@ -419,7 +419,8 @@ def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
     system (J W Jᵀ + α̃) Δλ = −C − α̃ λ ([M16]'s linearised system with its g term dropped, as there) is banded
     for a chain and is solved exactly by :func:`banded_ldlt_solve` ([D18]); Δx = W Jᵀ Δλ. With stretch rows only
     it is tridiagonal. A single iteration then gives XPBD's stated stiffness; PBD and Jakobsen scale Δλ by their k.
-    Where XPBD's tension is stiff (transverse waves faster than a fifth of a segment per substep), the system also
+    Where the tension is stiff (transverse waves faster than a fifth of a segment per substep; ``par.geometric``:
+    XPBD, and PBD and Jakobsen at k = 1), the system also
     carries the stretch rows' geometric stiffness, which makes the tension's sideways pull implicit
     (:func:`_direct_once`).
 

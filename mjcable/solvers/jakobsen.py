@@ -8,7 +8,8 @@ each scaled by ``stretch_factor`` k ∈ [0, 1] as is (no iteration correction: s
 with smaller steps, the thesis's accuracy- and timescale-stiffness effects).
 ``sqrt_approx`` replaces the square root by its first-order Taylor expansion at the rest length.
 
-Bending as for ``pbd`` (curvature with a stiffness derived from E·I, or the (i, i+2) support stick); clamps hold
+The direct order as for ``pbd`` (at ``stretch_factor`` 1 with the tension's geometric stiffness). Bending as for
+``pbd`` (curvature with a stiffness derived from E·I, or the (i, i+2) support stick); clamps hold
 the tangent rigidly; contacts move the segment's two particles with Jakobsen's weights (1 − s, s); the cable's
 E·A is not used.
 """
@@ -29,6 +30,7 @@ IGNORES = {"stretch_stiffness": FACTOR_STRETCH}
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     """Jakobsen's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
     bending, k_bend = bending_rules("jakobsen", scene, settings, h)
+    k_stretch = float(settings.stretch_factor)
     return Rules(verlet_start=True, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0,
-                 k_stretch=float(settings.stretch_factor), k_bend=k_bend, k_clamp=1.0, bending=bending,
-                 sqrt_approx=settings.sqrt_approx)
+                 k_stretch=k_stretch, k_bend=k_bend, k_clamp=1.0, bending=bending,
+                 sqrt_approx=settings.sqrt_approx, geometric_stiffness=k_stretch == 1.0)

@@ -58,6 +58,10 @@ Shapes = namedtuple("Shapes", ("type", "size", "pos", "rot"))
 
 _TINY_LENGTH = 1e-12  # m: a segment shorter than this has no direction; its projection is skipped
 _TINY_SLIP = 1e-15  # m: tangential slip below this needs no friction correction
+# the columns of a contact between two cables' row of self_anchor: the anchor's fractions s, t and normal (5), and
+# the contact's normal multiplier at the end of the last sweep (cable_contact_kernels._pool_loads)
+ANCHOR_COLUMNS = 6
+POOL_COLUMN = 5
 # m/s: the fastest a static obstacle pushes out a depth that its contact point already had when the substep began (a
 # start that cuts into it, or what a sweep after the contacts left): removed in one substep it would leave as a
 # velocity of depth / h, 2.4 m/s for 0.3 mm at h = 0.125 ms (contact_kernels.contact_sweep, docs/measurements.md)
@@ -196,8 +200,9 @@ FIELDS = (
     ("self_pair", _I2, "(S, 2) segments i, j"), ("self_st", _F2, "(S, 2) fractions s, t of the closest points"),
     ("self_normal", _F2, "(S, 3) unit normal from segment j to segment i"),
     ("self_lam_n", _F1, "(S,) kg·m normal multipliers"), ("self_lam_t", _F1, "(S,) kg·m friction multipliers"),
-    ("self_anchor", _F2, "(S, 5) a contact between two cables' friction anchor, kept across steps: the fractions s, "
-     "t of the points that touched and the normal then (cable_contact_kernels)"),
+    ("self_anchor", _F2, "(S, 6) a contact between two cables' friction anchor, kept across steps: the fractions s, "
+     "t of the points that touched and the normal then, and its λₙ at the end of the last sweep "
+     "(cable_contact_kernels)"),
     # obstacle shapes (B rows; contacts and anchors name their row)
     ("shape_type", _I1, "(B,) MuJoCo geom type (mjtGeom)"), ("shape_size", _F2, "(B, 3) m geom size"),
     ("shape_pos", _F2, "(B, 3) m world position"), ("shape_rot", _F3, "(B, 3, 3) world rotation (geom to world)"),
@@ -279,6 +284,8 @@ FIELDS = (
     ("winch_link", _I1, "(W,) link row (−1: world)"), ("winch_at", _F2, "(W, 3) m"), ("winch_u", _F2, "(W, 3) unit"),
     ("winch_len", _F1, "(W,) m r in [0, l0]"), ("winch_speed", _F1, "(W,) m/s (positive pays out)"),
     ("winch_rho", _F1, "(W,) kg/m"), ("winch_l0", _F1, "(W,) m"),
+    ("cable_load", _F2, "(N, 2) kg·m, 1: a particle's Σ share · λₙ and Σ share over its pressing contacts with other "
+     "cables, the pooled friction cones' sums (cable_contact_kernels)"),
 )
 
 
@@ -427,9 +434,10 @@ def _welds(S, weld_seg, weld_r0, lam_weld):
 
 
 @_jit
-def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p):
+def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p, cable_load):
     S.seg_cable, S.chain_seg, S.cable_mu = seg_cable, chain_seg, cable_mu
     S.junction_p, S.lam_j, S.junction_sum, S.joined_p = junction_p, lam_j, junction_sum, joined_p
+    S.cable_load = cable_load
 
 
 @_jit
@@ -478,7 +486,8 @@ _PARTS = (
     (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "clamp_wq", "end_clamp",
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),
     (_welds, ("weld_seg", "weld_r0", "lam_weld")),
-    (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p")),
+    (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p",
+                 "cable_load")),
     (_winch_topology, ("winch_pin", "winch_cable", "winch_dir", "winch_end", "winch_far", "winch_link")),
     (_winch_motion, ("winch_at", "winch_u", "winch_len", "winch_speed", "winch_rho", "winch_l0")),
 )

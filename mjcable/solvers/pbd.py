@@ -10,6 +10,10 @@ count; with many constraints fighting the result still depends on iterations and
 and timescale-stiffness effects. PBD has no compliance: the cable's E·A is not used (stretch is hard, softened
 only by k and by unconverged iterations).
 
+With ``order="direct"`` the stretch chain is solved at once, and at ``stretch_factor`` 1 (its rows are then
+XPBD's at α = 0, its multipliers forces) with the tension's geometric stiffness where the tension is stiff, as
+``xpbd``'s (:mod:`mjcable.solvers.direct_kernels`): a cable pinned taut between two points stays straight.
+
 Bending: ``"curvature"`` (default when E·I > 0) with ``bend_factor`` derived from E·I as the fraction XPBD's
 first iteration would remove, k = W / (W + α̃), α̃ = 1 / (E·I·l₀·h²), W = 6 w / l₀⁴ for an interior particle;
 or ``"distance"``, the thesis's (i, i+2) stick (``bend_factor`` default 1). Clamps hold the tangent rigidly.
@@ -74,6 +78,7 @@ def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     """PBD's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
     n = settings.iterations
     bending, k_bend = bending_rules("pbd", scene, settings, h)
+    k_stretch = iteration_factor(settings.stretch_factor, n)
     return Rules(verlet_start=settings.integrator == "verlet", alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0,
-                 k_stretch=iteration_factor(settings.stretch_factor, n), k_bend=iteration_factor(k_bend, n),
-                 k_clamp=1.0, bending=bending)
+                 k_stretch=k_stretch, k_bend=iteration_factor(k_bend, n), k_clamp=1.0, bending=bending,
+                 geometric_stiffness=k_stretch == 1.0)

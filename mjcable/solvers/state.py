@@ -49,7 +49,8 @@ class Rules:
         sequentially after it (PBD and Jakobsen: hard rows scaled by a stiffness do not form a solvable system).
       geometric_stiffness: with ``order="direct"``, the stretch rows' geometric stiffness λ ∇²C where the tension
         needs it (a KKT solve in positions and multipliers, :mod:`mjcable.solvers.direct_kernels`): for multipliers
-        that are forces (XPBD, k = 1).
+        that are forces, k = 1 (XPBD; PBD and Jakobsen at ``stretch_factor`` 1, whose stretch rows are then XPBD's
+        at α = 0).
       rod_compliance: a Cosserat rod's six compliances (stretch–shear: shear, shear, stretch in 1/(N·m);
         bend–twist: bend, bend, twist in 1/(N·m³); :mod:`mjcable.solvers.cosserat_kernels`), which gives every
         segment a material frame; ``None``: no frames (the state's frame fields are empty).
@@ -140,7 +141,7 @@ def _contact_buffers(capacity: int, self_capacity: int) -> dict:
                 con_face=np.zeros(c, dtype=np.int64), con_lam=np.zeros(c), self_pair=np.zeros((s, 2), dtype=np.int64),
                 self_st=np.zeros((s, 2)),
                 self_normal=np.zeros((s, 3)), self_lam_n=np.zeros(s), self_lam_t=np.zeros(s),
-                self_anchor=np.zeros((s, 5)))
+                self_anchor=np.zeros((s, layout.ANCHOR_COLUMNS)))
 
 
 #: how a cable's property that the parameter record holds once for all cables is read (:func:`shared_cable`)
@@ -174,7 +175,8 @@ def topology(scene: Scene, *, frames: bool = False) -> dict:
     """The state's topology fields of ``scene``'s cables (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the
     cable of each segment ``seg_cable`` (n,) (−1: the gap from one cable's last particle to the next one's first),
     each cable's segments ``chain_seg`` (C, 2) [first, stop), its μ ``cable_mu`` (C,), the junctions' particles
-    ``junction_p`` (J, 2), their multipliers and force sums, and the pairs of particles they join ``joined_p``.
+    ``junction_p`` (J, 2), their multipliers and force sums, the pairs of particles they join ``joined_p``, and the
+    particles' sums of the pooled friction cones between cables ``cable_load`` (N, 2).
 
     Raises:
       ValueError: a clamped junction without ``frames`` (the point chains join particles, not tangents; a rod with
@@ -195,7 +197,7 @@ def topology(scene: Scene, *, frames: bool = False) -> dict:
     return dict(seg_cable=seg_cable, chain_seg=chain_seg,
                 cable_mu=np.array([c.friction for c in scene.cables], dtype=np.float64), junction_p=junction_p,
                 lam_j=np.zeros((len(junction_p), 3)), junction_sum=np.zeros((len(junction_p), 3)),
-                joined_p=_joined_pairs(junction_p))
+                joined_p=_joined_pairs(junction_p), cable_load=np.zeros((scene.n_particles, 2)))
 
 
 def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
