@@ -111,8 +111,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"height in pixels, per tile (default {RENDER_SIZE[1]}, or {GRID_TILE[1]} side by side)")
     render.add_argument("--dt", type=_positive_float, default=None,
                         help=f"simulation step in seconds (default {DEFAULT_DT}; for --env, the task's)")
-    render.add_argument("--camera", default="track",
-                        help="'track' (follows the cable, default) or a camera of the model, e.g. 'overview'")
+    render.add_argument("--camera", default=None,
+                        help="'track' (follows the cable; the default but for a --family with its own camera) or a "
+                             "camera of the model, e.g. 'overview'")
     render.add_argument("--stripe", action="store_true", help="draw a stripe along the material frame, so that twist "
                         "shows (models with frames: cosserat, joints, composite)")
     render.add_argument("--policy", choices=("random", "zero"), default="random", help="policy for --env (default "
@@ -252,11 +253,11 @@ def _render(args) -> int:
                              fps=args.fps, width=width, height=height, dt=dt, camera=args.camera, stripe=args.stripe)
     elif len(models) == 1:
         path = render.render_video(args.scene, models[0], args.out, seconds=_seconds(args), fps=args.fps,
-                                   width=width, height=height, dt=dt, camera=args.camera,
+                                   width=width, height=height, dt=dt, camera=args.camera or render.TRACK,
                                    stripe=args.stripe)
     else:
         path = render.render_grid(args.scene, models, args.out, seconds=_seconds(args), fps=args.fps,
-                                  tile_width=width, tile_height=height, dt=dt, camera=args.camera,
+                                  tile_width=width, tile_height=height, dt=dt, camera=args.camera or render.TRACK,
                                   stripe=args.stripe)
     print(path.resolve())
     return EXIT_FAILED if problems else EXIT_OK
@@ -272,7 +273,7 @@ def _render_env(args) -> int:
     envs = importlib.import_module("mjcable.envs")  # imported here: dm_control is slow to import
     settings = {} if args.dt is None else {"dt": args.dt}
     env = envs.load(args.env, args.model[0], random=args.seed, **settings)
-    camera = "overview" if args.camera == "track" else args.camera
+    camera = "overview" if args.camera in (None, "track") else args.camera
     width, height = _size(args, RENDER_SIZE)
     path = render.render_env(env, args.out, seconds=_seconds(args), fps=args.fps, width=width, height=height,
                              camera=camera, policy=args.policy, seed=args.seed)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mjcable import cli
-from mjcable.bench import pulley, videos
+from mjcable.bench import pulley, videos, winch
 
 SECONDS, FPS, WIDTH, HEIGHT = 1.0, 10, 320, 240
 ANGLE_TOLERANCE = 6.0  # degrees: the spoke's halves are ~15 pixels long at this size (H.264 blurs their edges)
@@ -52,6 +52,34 @@ def test_the_pulley_video_shows_the_rope_turning_the_pulley(tmp_path):
     assert expected[-1] > 60.0  # a turn that the spoke's pixels resolve many times over
     turned = np.unwrap(np.radians([_spoke_angle(image) for image in images]))
     np.testing.assert_allclose(np.degrees(turned), expected, rtol=0.0, atol=ANGLE_TOLERANCE)
+
+
+def _box_row(image: np.ndarray) -> float:
+    """The image row of the winch's box: the mean row of its orange pixels (red well above blue, green lit; the
+    rope is dark red, the background black, the labels white)."""
+    rgb = image.astype(np.int32)
+    rows, _ = np.nonzero((rgb[..., 0] - rgb[..., 2] > 30) & (rgb[..., 1] > 70) & (rgb[..., 2] < 200))
+    assert rows.size > 50  # the box is in view
+    return float(rows.mean())
+
+
+@pytest.mark.slow
+def test_the_winch_video_shows_the_box_rising_as_fast_as_the_winch_reels(tmp_path):
+    """The fixed side camera at distance d with a 45° field of view: the box rises 0.1 m/s × t, which is
+    H · 0.1 t / (2 d tan 22.5°) pixels (a pinhole camera, the box in the plane through the rope)."""
+    path = tmp_path / "winch.mp4"
+    seconds, fps = 2.0, 5
+    assert cli.main(["render", "--family", "winch", "--model", "xpbd", "-o", str(path), "--seconds", str(seconds),
+                     "--fps", str(fps), "--width", str(WIDTH), "--height", str(HEIGHT)]) == cli.EXIT_OK
+    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")
+    next(reader)
+    rows = np.array([_box_row(np.frombuffer(frame, np.uint8).reshape(HEIGHT, WIDTH, 3)) for frame in reader])
+    reader.close()
+    assert len(rows) == round(seconds * fps)
+    times = np.arange(len(rows)) / fps
+    scale = HEIGHT / (2.0 * videos.WINCH_CAMERA_DISTANCE * math.tan(math.radians(22.5)))  # pixels per metre
+    risen = rows[0] - rows  # image rows grow downwards
+    np.testing.assert_allclose(risen, scale * winch.SPEED * times, rtol=0.0, atol=2.0)  # 2 px: about 1 cm
 
 
 def test_unknown_family_is_named():

@@ -9,6 +9,8 @@ more entry.
 * ``pulley``: the Atwood machine of :mod:`mjcable.bench.pulley` with boxes of :data:`PULLEY_MASSES` (the heavy box
   drops 0.55 m in the video's :data:`PULLEY_SECONDS`; the must-show's 2 : 1 takes 0.6 s) and a two-coloured spoke
   across the pulley (visual only), so that the rope is seen turning it.
+* ``winch``: the lift of :mod:`mjcable.bench.winch`, seen from the side by a fixed camera (:data:`WINCH_CAMERA`): the
+  winch reels the box up at 0.1 m/s for 3 s, then lowers it again (particle solvers; the others refuse a winch).
 
 Example::
 
@@ -26,13 +28,13 @@ from typing import Callable, Dict, Optional, Sequence, Union
 import mujoco
 
 from mjcable import render as render_
-from mjcable.bench import pulley
+from mjcable.bench import pulley, winch
 from mjcable.render.camera import DEFAULT_ELEVATION
 from mjcable.render.tiles import Drive
 from mjcable.scene import Scene
 
 __all__ = ["FamilyVideo", "VIDEOS", "names", "get", "render", "pulley_scene", "PULLEY_MASSES", "PULLEY_SECONDS",
-           "SPOKE_COLOURS"]
+           "SPOKE_COLOURS", "winch_scene", "winch_drive", "WINCH_CAMERA", "WINCH_CAMERA_DISTANCE"]
 
 PULLEY_MASSES = (1.1, 1.0)  # kg: a ≈ g (m₁ − m₂) / (m₁ + m₂ + I / R_c²) = 0.38 m/s²
 PULLEY_SECONDS = 1.7  # s: the heavy box drops 0.55 m of its 0.6 m leg difference
@@ -41,6 +43,8 @@ SPOKE_COLOURS = {"blue": (0.1, 0.3, 0.9, 1.0), "green": (0.1, 0.8, 0.2, 1.0)}  #
 _SPOKE_LENGTH = 0.9  # of the pulley's radius, each half
 _SPOKE_HALF_WIDTH = 0.015  # m
 _SPOKE_PROUD = 0.002  # m the spoke stands out of the pulley's faces, so that it shows on them
+WINCH_CAMERA = "winch_side"  # the winch video's camera: on +x, level with the box's middle height, looking along −x
+WINCH_CAMERA_DISTANCE = 1.5  # m from the rope's line
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,6 +59,7 @@ class FamilyVideo:
       elevation: the tracking camera's angle above the horizon, degrees.
       drive: ``drive(simulator)`` before each frame's step, for a scene that does something at run time; ``None``:
         nothing.
+      camera: a camera of the scene's world that films it; ``None``: the tracking camera.
     """
 
     name: str
@@ -63,6 +68,7 @@ class FamilyVideo:
     seconds: float
     elevation: float = DEFAULT_ELEVATION
     drive: Optional[Drive] = None
+    camera: Optional[str] = None
 
 
 def pulley_scene() -> pulley.AtwoodScene:
@@ -82,11 +88,31 @@ def pulley_scene() -> pulley.AtwoodScene:
     return dataclasses.replace(scene, world=spec)
 
 
+def winch_scene() -> winch.LiftScene:
+    """:func:`mjcable.bench.winch.lift_scene` with a fixed camera :data:`WINCH_CAMERA` at
+    :data:`WINCH_CAMERA_DISTANCE` m on +x, level with the middle of the box's travel, looking along −x (image right is
+    +y, image up is +z; MuJoCo's default 45° field of view)."""
+    scene = winch.lift_scene()
+    spec = scene.world.spec()
+    z = winch.WINCH_HEIGHT - scene.free_length - winch.BOX_HALF + 0.5 * winch.SPEED * winch.DURATION
+    spec.worldbody.add_camera(name=WINCH_CAMERA, pos=[WINCH_CAMERA_DISTANCE, 0.0, z],
+                              xyaxes=[0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
+    return dataclasses.replace(scene, world=spec)
+
+
+def winch_drive(sim) -> None:
+    """The winch video's reel (:data:`Drive`): in at :data:`mjcable.bench.winch.SPEED` for
+    :data:`mjcable.bench.winch.DURATION`, then out as fast."""
+    sim.reel(0, -winch.SPEED if sim.time < winch.DURATION - 1e-9 else winch.SPEED)
+
+
 VIDEOS: Dict[str, FamilyVideo] = {
     v.name: v
     for v in (
         FamilyVideo("pulley", "the Atwood machine over a pulley on a frictionless hinge: the rope turns the pulley",
                     pulley_scene, seconds=PULLEY_SECONDS, elevation=PULLEY_ELEVATION),
+        FamilyVideo("winch", "a winch reels a box up 0.3 m and lowers it again", winch_scene,
+                    seconds=2.0 * winch.DURATION, drive=winch_drive, camera=WINCH_CAMERA),
     )
 }
 
@@ -109,7 +135,7 @@ def get(name: str) -> FamilyVideo:
 
 def render(name: str, models: Union[str, Sequence[str]], path, *, seconds: Optional[float] = None, fps: int = 30,
            width: Optional[int] = None, height: Optional[int] = None, dt: float = 0.002,
-           camera: str = render_.TRACK, stripe: bool = False, progress: Optional[bool] = None,
+           camera: Optional[str] = None, stripe: bool = False, progress: Optional[bool] = None,
            **settings) -> Path:
     """Render family ``name``'s video to an MP4 file, atomically: one model (:func:`mjcable.render.render_video`),
     or several side by side (:func:`mjcable.render.render_grid`).
@@ -123,7 +149,8 @@ def render(name: str, models: Union[str, Sequence[str]], path, *, seconds: Optio
       width, height: frame size in pixels, per tile side by side (even); default 640 × 480 for one model, 320 × 240
         per tile.
       dt: the simulators' step in seconds.
-      camera: ``"track"`` or a camera of the models.
+      camera: ``"track"`` or a camera of the models; ``None``: the family's (:attr:`FamilyVideo.camera`, else the
+        tracking camera).
       stripe: draw a stripe along the cable's material frame (models with frames), so that twist shows.
       progress: show a progress bar (``None``: for long renders on a terminal).
       **settings: the models' settings (every model gets the same).
@@ -136,6 +163,7 @@ def render(name: str, models: Union[str, Sequence[str]], path, *, seconds: Optio
     """
     video = get(name)
     seconds = video.seconds if seconds is None else seconds
+    camera = (video.camera or render_.TRACK) if camera is None else camera
     options = dict(seconds=seconds, fps=fps, dt=dt, camera=camera, elevation=video.elevation, stripe=stripe,
                    progress=progress, drive=video.drive)
     if isinstance(models, str):
