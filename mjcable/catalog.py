@@ -68,6 +68,7 @@ class ModelEntry:
       sections: it bends anisotropically (``CableSpec.section`` with unequal semi-axes).
       several_cables: it simulates a scene of several cables (``Scene(cable=(...))``), with contacts between them.
       junctions: it joins cables at ``Scene.junctions`` (and closes loops).
+      rings: it threads cables through ``Scene.rings`` (sliding, with friction on the rim).
     """
 
     name: str
@@ -85,6 +86,7 @@ class ModelEntry:
     sections: bool = False
     several_cables: bool = False
     junctions: bool = False
+    rings: bool = False
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name or not self.name.replace("-", "_").isidentifier():
@@ -220,7 +222,8 @@ def check_scene(scene: Scene, model: str) -> None:
     entry = get(model)
     for capability, what, wanted in (("several_cables", f"several cables ({len(scene.cables)})",
                                       len(scene.cables) > 1),
-                                     ("junctions", f"junctions ({len(scene.junctions)})", bool(scene.junctions))):
+                                     ("junctions", f"junctions ({len(scene.junctions)})", bool(scene.junctions)),
+                                     ("rings", f"rings ({len(scene.rings)})", bool(scene.rings))):
         if wanted and not getattr(entry, capability):
             takers = tuple(n for n, e in _REGISTRY.items() if getattr(e, capability))
             raise ValueError(f"{model}: {what} in scene {scene.name!r}: model {model!r} does not simulate them yet; "
@@ -295,7 +298,7 @@ for _module, _settings, _summary in (
         (xpbd, XPBDSettings, "Extended Position Based Dynamics, direct (banded) order")):
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="particle", settings=_settings,
                         build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary,
-                        ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True))
+                        ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True, rings=True))
 register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
                     backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
                     sections=True,

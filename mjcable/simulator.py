@@ -189,6 +189,12 @@ class Simulator:
         return self._backend.junction_forces()
 
     @property
+    def ring_forces(self) -> np.ndarray:
+        """``(len(scene.rings), 3)`` force in newtons each ring exerts on its cable, world frame, averaged over the
+        last step as :attr:`pin_forces`; zero once it let go (an end slipped out) and before the first step."""
+        return self._backend.ring_forces() if self.scene.rings else np.zeros((0, 3))
+
+    @property
     def pin_torques(self) -> np.ndarray:
         """``(len(scene.pins), 3)`` torque in N·m each pin exerts on the cable about its pinned particle (non-zero for
         clamps only)."""
