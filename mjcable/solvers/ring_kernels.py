@@ -50,13 +50,16 @@ References:
   [M16] M. Macklin, M. Müller, N. Chentanez, "XPBD: Position-Based Simulation of Compliant Constrained
         Dynamics", MIG 2016.
   [O] Obi Rope (Virtual Method), pinhole constraints: a rope sliding through a point, with friction.
+
+The substep's entry points (:func:`ring_begin`, :func:`ring_sweep`, :func:`ring_end`) are compiled once and called,
+not inlined: a scene without rings skips them (:mod:`mjcable.solvers.kernels`).
 """
 
 from __future__ import annotations
 
 import math
 
-from mjcable.solvers._kernel_cache import inline as _inline
+from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.constraint_kernels import xpbd_multiplier
 from mjcable.solvers.kernels_layout import _TINY_LENGTH, RING_LET_GO, RING_SLIDING, RING_STOPPED
 
@@ -106,7 +109,7 @@ def _turn(S, r, i):
     return math.acos(min(1.0, max(-1.0, cos_turn)))
 
 
-@_inline
+@_jit
 def ring_begin(S):
     """A substep's start: the rings' material-point multipliers zeroed."""
     S.ring_lam[:] = 0.0
@@ -224,7 +227,7 @@ def _hold_stop(S, r):
             react[c, comp] -= dlam
 
 
-@_inline
+@_jit
 def ring_sweep(S):
     """Project every ring once (after the chains and junctions of an iteration; module docstring)."""
     P = S.par[0]
@@ -237,7 +240,7 @@ def ring_sweep(S):
             _hold_stop(S, r)
 
 
-@_inline
+@_jit
 def ring_end(S):
     """A substep's end: a ring with friction whose λ_Δ reached the capstan bound slid: its anchor moves to where the
     cable passes its centre."""
