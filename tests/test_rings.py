@@ -1,4 +1,5 @@
-"""Rings (issue 23, item 1) in the particle solvers: a cable slides through a ring (:mod:`mjcable.solvers.ring_kernels`).
+"""Rings (issue 23, item 1) in the particle solvers: a cable slides through a ring
+(:mod:`mjcable.solvers.ring_kernels`).
 
 References, all from physics: the Atwood machine through a frictionless ring (the heavy-rope Atwood machine without a
 pulley, :func:`mjcable.bench.pulley.heavy_rope_drop`; light rope: a = g (m₁ − m₂) / (m₁ + m₂)); Euler's capstan law
@@ -141,7 +142,8 @@ def test_the_bench_measures_the_ring_family():
     its defaults), and a model without rings is rejected."""
     from mjcable.bench import Case, run_case
 
-    rows = {name: _quiet(run_case, Case(name, "xpbd", 0.002, quick=True)) for name in ("ring", "ring_hold", "ring_slide")}
+    rows = {name: _quiet(run_case, Case(name, "xpbd", 0.002, quick=True))
+            for name in ("ring", "ring_hold", "ring_slide")}
     assert all(row["outcome"] == "stable" for row in rows.values())
     assert rows["ring"]["error"] < 0.02 and rows["ring_hold"]["error"] < 2e-3 and rows["ring_slide"]["error"] < 0.15
     assert run_case(Case("ring", "joints", 0.002, quick=True))["outcome"] == "rejected"

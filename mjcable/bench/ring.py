@@ -5,7 +5,8 @@ ends of a limp rope (body pins at their top faces' centres) that rises from each
 (0, 0, :data:`RING_HEIGHT`) with its axis along x: the rope turns through θ = π − 2 atan(d / L) there (d the boxes'
 half spacing, L a leg; nearly a half turn). Nothing touches. :func:`run_atwood` lets it go from rest and records the
 heavy box's drop (the rope starts on a half circle of radius d through the ring's centre, 3 mm longer than its
-taut legs: the boxes fall that far before it pulls); :func:`measure` fits its acceleration (a parabola over :data:`WINDOW`, numpy's least squares).
+taut legs: the boxes fall that far before it pulls); :func:`measure` fits its acceleration (a parabola over
+:data:`WINDOW`, numpy's least squares).
 
 References. Frictionless: the heavy-rope Atwood machine without a pulley (:func:`mjcable.bench.pulley.heavy_rope_drop`
 at I = 0; light rope: a = g (m₁ − m₂) / (m₁ + m₂)). With rim friction μ (:mod:`mjcable.solvers.ring_kernels`): the
@@ -91,7 +92,8 @@ def atwood_scene(n_segments: int = SEGMENTS, *, masses=(HEAVY_MASS, LIGHT_MASS),
     cable = CableSpec(left + arc + right, n_segments, ROPE_RADIUS, density * (2.0 * LEG + math.pi * SPACING))
     pins = (Pin(0, "body", body=HEAVY_BODY, offset=(0.0, 0.0, BOX_HALF)),
             Pin(-1, "body", body=LIGHT_BODY, offset=(0.0, 0.0, BOX_HALF)))
-    return RingAtwoodScene(cable, pins, world=spec, rings=(Ring((0.0, 0.0, RING_HEIGHT), (1.0, 0.0, 0.0), friction=mu),),
+    rings = (Ring((0.0, 0.0, RING_HEIGHT), (1.0, 0.0, 0.0), friction=mu),)
+    return RingAtwoodScene(cable, pins, world=spec, rings=rings,
                            name="ring", masses=(m1, m2), mu=mu)
 
 

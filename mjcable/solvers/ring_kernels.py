@@ -24,7 +24,8 @@ vectors uₐ = (xᵢ − c) / a, u_b = (xᵢ₊₁ − c) / b:
 Friction (the capstan law for a point ring). A cable turning by θ through the ring, tensions T₁ and T₂ either side
 along unit tangents t₁ (arriving) and t₂ (leaving), pulls the ring with F = T₁ t₁ − T₂ t₂ (the ring's force on it is
 −F). With b̂ = (t₁ + t₂) / |t₁ + t₂| and n̂ = (t₁ − t₂) / |t₁ − t₂| (|t₁ ± t₂| = 2 cos(θ/2), 2 sin(θ/2)):
-F = (T₁ − T₂) cos(θ/2) b̂ + (T₁ + T₂) sin(θ/2) n̂, so the ring's normal force is F_n = 2 T̄ sin(θ/2), T̄ = (T₁ + T₂) / 2.
+F = (T₁ − T₂) cos(θ/2) b̂ + (T₁ + T₂) sin(θ/2) n̂, so the ring's normal force is F_n = 2 T̄ sin(θ/2),
+T̄ = (T₁ + T₂) / 2.
 The force that drives the slide is the tension jump F_t = T₁ − T₂ (the work of a slide δs is (T₁ − T₂) δs; at θ = π
 none of it is in F, which is why it is not read off F). A rope over a rim holds while T₁ / T₂ ≤ e^{μθ} (Euler's
 capstan law), i.e. (T₁ − T₂) / (T₁ + T₂) ≤ (e^{μθ} − 1) / (e^{μθ} + 1) = tanh(μθ/2):
