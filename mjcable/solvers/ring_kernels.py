@@ -52,8 +52,9 @@ References:
         Dynamics", MIG 2016.
   [O] Obi Rope (Virtual Method), pinhole constraints: a rope sliding through a point, with friction.
 
-The substep's entry points (:func:`ring_begin`, :func:`ring_sweep`, :func:`ring_end`) are compiled once and called,
-not inlined: a scene without rings skips them (:mod:`mjcable.solvers.kernels`).
+The substep's entry points (:func:`ring_begin`, :func:`ring_sweep`, :func:`ring_end`) and the small helpers they
+repeat are compiled once and called, not inlined (less for the step loop to compile); a scene without rings skips
+them (:mod:`mjcable.solvers.kernels`).
 """
 
 from __future__ import annotations
@@ -70,7 +71,7 @@ TURN_SEGMENTS = 3  # segments either side of a ring over which its turn θ is me
 _SLID = 1e-9  # relative: a multiplier this close to the friction bound reached it (the ring slid)
 
 
-@_inline
+@_jit
 def _move(x, w, react, p, gx, gy, gz, dlam):
     """Particle ``p`` moved by w ∇C Δλ (∇C = (gx, gy, gz)), or, held (w = 0), ∇C Δλ added to its reaction."""
     wp = w[p]
@@ -84,7 +85,7 @@ def _move(x, w, react, p, gx, gy, gz, dlam):
         react[p, 2] += gz * dlam
 
 
-@_inline
+@_jit
 def _arm(x, p, c):
     """(length, unit vector) from particle ``c`` to particle ``p`` of ``x`` (0 and a zero vector when shorter than
     ``_TINY_LENGTH``)."""
@@ -95,7 +96,7 @@ def _arm(x, p, c):
     return length, dx / length, dy / length, dz / length
 
 
-@_inline
+@_jit
 def _turn(S, r, i):
     """rad: the cable's turn θ through ring ``r`` holding segment ``i``: the angle between the chord from the particle
     :data:`TURN_SEGMENTS` before it (or the cable's first) to the centre and the chord from the centre to the one
@@ -171,7 +172,7 @@ def _slide(S, r, alpha_tilde, k):
     _move(x, w, react, c, -dx, -dy, -dz, dlam)
 
 
-@_inline
+@_jit
 def _follow(S, r):
     """Ring ``r``'s anchor where the cable passes its centre now, t = a / (a + b) on its segment."""
     i, c = S.ring_seg[r], S.ring_p[r]
