@@ -321,7 +321,7 @@ for _module, _settings, _summary in (
     register(ModelEntry(name=_module.__name__.rsplit(".", 1)[1], family="particle", settings=_settings,
                         build=proxy_builder, backend=ParticleBackend, rules=_module.rules, summary=_summary,
                         ignores=getattr(_module, "IGNORES", {}), several_cables=True, junctions=True,
-                        winches=True))
+                        winches=True, rings=True))
 register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
                     backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
                     sections=True, junctions=True, start_twist=True,

@@ -176,8 +176,7 @@ class Simulator(WinchControl):
         clamp's force is included (its torque is :attr:`pin_torques`); a released socket's row is zero. Native
         models report the last constraint solve (the state at the start of the last MuJoCo step), the particle
         solvers the force averaged over the last step's substeps (the step's impulse / dt). Sockets let go on the
-        same quantity.
-        """
+        same quantity."""
         return self._backend.pin_forces()
 
     @property
@@ -185,14 +184,16 @@ class Simulator(WinchControl):
         """``(len(scene.junctions), 3)`` force in newtons each junction exerts on its particle b (the second of its
         pair; equal and opposite on a), world frame, averaged over the last step as :attr:`pin_forces`; zero rows
         before the first step."""
-        if not self.scene.junctions:
-            return np.zeros((0, 3))
-        return self._backend.junction_forces()
+        return self._backend.junction_forces() if self.scene.junctions else np.zeros((0, 3))
+
+    @property
+    def ring_forces(self) -> np.ndarray:
+        """``(len(scene.rings), 3)`` N each ring's force on its cable, as :attr:`pin_forces` (0 once it let go)."""
+        return self._backend.ring_forces() if self.scene.rings else np.zeros((0, 3))
 
     @property
     def pin_torques(self) -> np.ndarray:
-        """``(len(scene.pins), 3)`` torque in N·m each pin exerts on the cable about its pinned particle (non-zero for
-        clamps only)."""
+        """``(len(scene.pins), 3)`` N·m each pin's torque on the cable about its particle (non-zero for clamps only)."""
         return self._backend.pin_torques()
 
     @property

@@ -286,3 +286,16 @@ def test_a_cable_that_starts_in_the_rim_is_refused():
     scene = Scene(cable, rings=(Ring((0.0, 0.0, 1.0), (1.0, 0.0, 0.0)),))
     with pytest.raises(ValueError, match=r"joints: rings\[0\]: cable 0 starts 0\.\d+ m deep in the ring's rim"):
         catalog.build(scene, "joints")
+
+
+def test_a_native_rings_force_carries_both_legs_tensions():
+    """A frictionless ring turning the rope through about π pushes it back with the sum of the two legs' pulls: at
+    the Atwood machine's tension T = 2 m₁ m₂ g / (m₁ + m₂) each (a light rope), ≈ 2 T upwards; and the same sum of
+    the boxes' pin forces, read independently from their connect equalities."""
+    sim = Simulator(atwood(), "joints", **SETTINGS["joints"])
+    sim.step(0.2)
+    tension = 2.0 * 2.0 * 1.0 * G / 3.0
+    force = sim.ring_forces
+    assert force.shape == (1, 3)
+    assert force[0, 2] == pytest.approx(2.0 * tension, rel=0.1)  # the rope's 30 g and its swing
+    assert force[0, 2] == pytest.approx(np.linalg.norm(sim.pin_forces, axis=1).sum(), rel=0.05)

@@ -105,7 +105,7 @@ class ParticleGrasps:
     def forces(self, rows: np.ndarray) -> np.ndarray:
         """``(n_free, 3)`` N: the free grippers' rows of the pins' forces ``rows`` ``(P + n_free, 3)`` (inactive rows
         zero)."""
-        return rows[self.first:]
+        return rows[self.first:self.first + len(self.offset)]
 
 
 class NativeGrasps:

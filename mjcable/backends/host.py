@@ -111,6 +111,8 @@ class Host:
         contacts' reactions.
       frames: the cable is a rod with material frames (``cosserat``): a body clamp holds its frame in the body,
         which feels the rod's torque.
+      rings: the body rings' links (:func:`mjcable.backends.rings.body_links`), coupled as body pins are (their
+        neighbour ``−1 − r``: the direction is ring r's pull, ``ring_dir``).
 
     Raises:
       RuntimeError: MuJoCo's C API is unavailable (:func:`mjcable.solvers.capi.host_unavailable` says why): the host
@@ -118,7 +120,7 @@ class Host:
     """
 
     def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData,
-                 obstacles: Optional[ObstacleContacts] = None, *, frames: bool = False):
+                 obstacles: Optional[ObstacleContacts] = None, *, frames: bool = False, rings: Optional[dict] = None):
         fns = capi.host_functions()
         if fns is None:
             raise RuntimeError("the particle solvers step a user world through MuJoCo's C API, which is unavailable "
@@ -135,6 +137,13 @@ class Host:
         #: (K, 2) [row in the state's clamp arrays, body id] of the body pins' clamps
         self._clamps = np.array([(clamped.index(k), int(bodies[j])) for j, k in enumerate(pins)
                                  if scene.pins[k].clamp], dtype=np.int64).reshape(-1, 2)
+        neighbours = np.array([scene.clamp_neighbour(k) for k in pins], dtype=np.int64)
+        if rings is not None:  # body rings' hubs: links like the body pins' (mjcable.backends.rings.body_links)
+            self.pins = np.concatenate([self.pins, rings["link_pin"]])
+            self.particles = np.concatenate([self.particles, rings["link_particle"]])
+            self.sites = np.concatenate([self.sites, rings["link_site"]])
+            bodies = np.concatenate([bodies, rings["link_body"]])
+            neighbours = np.concatenate([neighbours, rings["link_neighbour"]])
         rows = row_bodies = np.zeros(0, dtype=np.int64)
         n_rows = 0  # obstacle rows of the contact impulses (none: no body takes them)
         if obstacles is not None:
@@ -145,12 +154,12 @@ class Host:
             if len(rows):
                 n_rows = len(body)
         nstate = mujoco.mj_stateSize(m, _STATE)
-        L = len(pins)
+        L = len(self.pins)
         self._saved = np.zeros(nstate)
         #: the state's host fields (kernels_layout.FIELDS) and parameters (kernels_layout.PARAMS)
         self.fields = dict(
             link_pin=self.pins, link_particle=self.particles,
-            link_neighbour=np.array([scene.clamp_neighbour(k) for k in pins], dtype=np.int64), link_body=bodies,
+            link_neighbour=neighbours, link_body=bodies,
             link_site=self.sites, link_clamp=self._clamps, clamp_local=np.zeros((len(self._clamps), 3, 2)),
             clamp_qlocal=np.zeros((len(self._clamps) if frames else 0, 4)),
             site_xpos=d.site_xpos, xipos=d.xipos, xmat=d.xmat, xquat=d.xquat, xfrc_applied=d.xfrc_applied,

@@ -128,6 +128,12 @@ class NativeBackend:
                                            cables.pin_name(scene, k, world.pin_equality, clamp=c, roll=r))
                                   for c, r in ((False, False), (True, False), (False, True))]
                                  for k in range(len(scene.pins))], dtype=np.int64).reshape(-1, 3)
+        # geom id -> the ring it belongs to (its capsules and its stop; -1: none)
+        self._ring_of_geom = np.full(m.ngeom, -1, dtype=np.int64)
+        for k in range(len(scene.rings)):
+            names = [rings.ring_geom(k, j) for j in range(rings.SIDES)] + [rings.stop_geom(k)]
+            ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) for name in names]
+            self._ring_of_geom[[i for i in ids if i >= 0]] = k
         # junction j -> its connect (or weld) and its clamp's tendon equality (-1: none), and the sites of the
         # clamp's tendon ends, the inward neighbours of particles a and b
         self._junction_eq = np.array([[_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, cables.junction_equality(j, clamp=c))
@@ -510,6 +516,26 @@ class NativeBackend:
 
     def gripper_forces(self) -> np.ndarray:
         return self._grasps.forces()
+
+    def ring_forces(self) -> np.ndarray:
+        """``(len(scene.rings), 3)`` N: the force each ring exerted on the cable in the last constraint solve, the sum
+        of its geoms' contact forces (MuJoCo's contact force acts on geom2 along the frame's normal, −that on
+        geom1)."""
+        d = self.mj_data
+        out = np.zeros((len(self.scene.rings), 3))
+        wrench = np.zeros(6)
+        for i in range(d.ncon):
+            contact = d.contact[i]
+            k1, k2 = self._ring_of_geom[contact.geom1], self._ring_of_geom[contact.geom2]
+            if max(k1, k2) < 0:
+                continue
+            mujoco.mj_contactForce(self.mj_model, d, i, wrench)
+            force = contact.frame.reshape(3, 3).T @ wrench[:3]  # on geom2, world frame
+            if k1 >= 0:
+                out[k1] += force  # the ring (geom1) pushes the cable (geom2)
+            else:
+                out[k2] -= force
+        return out
 
     @property
     def released(self) -> set:

@@ -23,6 +23,7 @@ import mujoco
 import numpy as np
 
 from mjcable.backends import host as host_world
+from mjcable.backends import rings as rings_
 from mjcable.backends.grasp import ParticleGrasps, add_pin_rows
 from mjcable import monitor
 from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Energy, RunResult
@@ -43,7 +44,8 @@ _RESET = ("x", "v", "x0", "w", "mass", "react", "dx", "relax", "prev", "par", "r
           "pin_release", "pin_force", "pin_sum", "pin_count", "band", "grad", "rhs", "fric_n", "fric_mu",
           "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob", "anchor", "anchor_ob", "q", "q0",
           "omega", "lam_ss", "lam_bt", "lam_end", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react",
-          "clamp_wq", "lam_j", "junction_sum", "lam_weld") + winches.RESET_FIELDS
+          "clamp_wq", "lam_j", "junction_sum", "lam_weld", "ring_seg", "ring_t", "ring_mode", "ring_lam",
+          "ring_dir") + winches.RESET_FIELDS
 _NO_PATH = (np.zeros(0, dtype=np.int64), np.zeros((0, 0, 3)))  # run()'s path when it has none
 
 
@@ -51,7 +53,9 @@ def proxy_builder(scene: Scene, settings: ParticleSettings, dt: float) -> mujoco
     """The catalogue's builder for a particle model: the proxy spec (:func:`mjcable.mjcf.proxy.build`)."""
     h = dt / settings.substeps if scene.world is not None else dt  # a user world steps in lock step, per substep
     with world.user_names(scene):
-        return world.finish(proxy.build(scene, dt=h, contact_margin=settings.contact_margin), scene)
+        spec = proxy.build(scene, dt=h, contact_margin=settings.contact_margin)
+        rings_.add_sites(spec, scene)
+        return world.finish(spec, scene)
 
 
 class ParticleBackend:
@@ -80,6 +84,7 @@ class ParticleBackend:
         self._user = [(c, c.resolved(n_particles)) for c in getattr(s, "constraints", ())]
         a = self.arrays = chain_arrays(scene, self.rules, s, dt)
         add_pin_rows(a, scene)  # an inactive pin row per free gripper
+        rings_.add_ring_rows(a, scene)  # then a pin row per ring's hub
         self._grasps = ParticleGrasps(scene, a)
         self._par = a.par[0]  # the parameter record (a view: reads and writes go to the state)
         self._limits = lim = monitor.limits(scene, entry)
@@ -121,8 +126,8 @@ class ParticleBackend:
         if o is not None:
             a.update(o.arrays())
             self._connect_query()
-        self._host = (host_world.Host(scene, m, d, o, frames=a.q.shape[0] > 0) if scene.world is not None
-                      else None)
+        self._host = (host_world.Host(scene, m, d, o, frames=a.q.shape[0] > 0, rings=rings_.body_links(scene, m, a))
+                      if scene.world is not None else None)
         if self._host is not None:
             a.update(self._host.fields)
             for name, value in self._host.params.items():
@@ -282,7 +287,7 @@ class ParticleBackend:
                 par["warn_step"] = 1
                 warning = self._warning(step)
             if stored < len(rows) and rows[stored] == step + 1:
-                out_x[stored], out_v[stored] = a.x, a.v
+                out_x[stored], out_v[stored] = a.x[:out_x.shape[1]], a.v[:out_v.shape[1]]
                 stored += 1
             if released:
                 self._note_released()
@@ -298,7 +303,7 @@ class ParticleBackend:
     def _pose(self) -> None:
         """Pose the proxy capsules from the particles and run MuJoCo's kinematics (what ``mj_collision`` needs)."""
         a = self.arrays
-        query_kernels.proxy_poses(a.x, a.pose_pos, a.pose_quat)
+        query_kernels.proxy_poses(a.x[:self.scene.n_particles], a.pose_pos, a.pose_quat)
         mujoco.mj_kinematics(self.mj_model, self.mj_data)
 
     def _sync(self) -> None:
@@ -306,18 +311,18 @@ class ParticleBackend:
         self._pose()
         mujoco.mj_camlight(self.mj_model, self.mj_data)  # cameras and lights (a renderer reads cam_xpos)
         # the exact particles (the capsules keep their rest length, so their end sites are off by the strain)
-        self._site_pos[:] = self.arrays.x
+        self._site_pos[:] = self.arrays.x[:self.scene.n_particles]
 
     # -- the Simulator's interface --------------------------------------------------------------------------------
 
     def positions(self) -> np.ndarray:
-        return self.arrays.x.copy()
+        return self.arrays.x[:self.scene.n_particles].copy()  # (the rings' hubs follow the cables' particles)
 
     def velocities(self) -> np.ndarray:
-        return self.arrays.v.copy()
+        return self.arrays.v[:self.scene.n_particles].copy()
 
     def particle_masses(self) -> np.ndarray:
-        return self.arrays.mass.copy()
+        return self.arrays.mass[:self.scene.n_particles].copy()
 
     def energy(self) -> Energy:
         """½ Σ mᵢ|vᵢ|², −Σ mᵢ g·xᵢ and the constraint rows' potential (:mod:`mjcable.solvers.energy`: XPBD's
@@ -410,6 +415,13 @@ class ParticleBackend:
     def gripper_forces(self) -> np.ndarray:
         """``(n_free, 3)`` N: each free gripper's force on its particle, as :meth:`pin_forces` (0 while open)."""
         return self._grasps.forces(self._pin_rows())
+    def ring_forces(self) -> np.ndarray:
+        """``(R, 3)`` N each ring's force on its cable, averaged over the last step as :meth:`pin_forces` (its hub's
+        pin row: :mod:`mjcable.backends.rings`); zero once it let go and before the first step."""
+        f = self._pin_rows()[rings_.ring_rows(self.scene)]
+        f[self.arrays.ring_mode == layout.RING_LET_GO] = 0.0
+        return f
+
     def junction_forces(self) -> np.ndarray:
         """``(J, 3)`` N each junction's force on its particle b (equal and opposite on a), averaged over the last
         step's substeps as :meth:`pin_forces` (:mod:`mjcable.solvers.junction_kernels`); zero before the first

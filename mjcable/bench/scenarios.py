@@ -50,6 +50,12 @@ and its distance from its start at the end) and ``winch_pull`` (relative: the la
 against the weight it holds while reeling steadily and the mass per metre's from the pull at two lengths); models
 without winches are ``rejected``.
 
+And the ring family (:mod:`mjcable.bench.ring`): ``ring`` (two boxes of 2 and 1 kg on a light rope through a
+frictionless ring above them: relative error of the heavy box's acceleration, fitted over 0.1-0.5 s, against the
+heavy-rope Atwood machine), ``ring_hold`` (rim friction μ = 0.3, m₁ / m₂ = 0.85 e^{μπ}: the heavy box's creep in m/s
+once the start's slack is taken up, 0 when it holds) and ``ring_slide`` (m₁ / m₂ = 1.15 e^{μπ}: relative error of
+its acceleration against the kinetic capstan law); models without rings are ``rejected``.
+
 And the harness family (:mod:`mjcable.bench.harness`): ``harness``, the Y-harness (three cables of 0.6 m from
 pins at three heights to one junction) damped to rest: largest distance in metres to the discrete reference
 (:func:`mjcable.reference_harness.y_harness`); ``n_segments`` per leg; models that cannot hold several cables
@@ -87,7 +93,7 @@ import numpy as np
 from scipy import optimize
 
 from mjcable import reference, scenes
-from mjcable.bench import contact, harness, knot, pulley, twist, winch
+from mjcable.bench import contact, harness, knot, pulley, ring, twist, winch
 from mjcable.scene import Box, CableSpec, Cylinder, Floor, Pin, Scene
 
 __all__ = [
@@ -495,6 +501,18 @@ SCENARIOS: Dict[str, Scenario] = {
               ("winch", "the box's rise against the reeled length, and its return", "m", winch.travel_error),
               ("winch_pull", "the winch's pull against the weight it holds while reeling, and the rope's mass per "
                "metre from the pull", "relative", winch.pull_error))),
+        *(Scenario(name, f"{what}; the Atwood machine through a ring (m₂ = 1 kg, the rope turned through π)",
+                   scene, duration=duration + ring.SAMPLE_EVERY, quick_duration=duration + ring.SAMPLE_EVERY,
+                   error_kind=kind, evaluate=evaluate, drive=ring.bench_drive, passive=False)
+          for name, what, scene, duration, kind, evaluate in (
+              ("ring", "frictionless, m₁ = 2 kg: relative error of the heavy box's acceleration against the "
+               "heavy-rope Atwood machine", lambda n, p: ring.atwood_scene(n), ring.DURATION, "relative",
+               ring.acceleration_error),
+              ("ring_hold", "μ = 0.3, m₁ / m₂ = 0.85 e^{μπ}: the heavy box's creep in m/s over 0.7-1 s (0: it holds)",
+               lambda n, p: ring.hold_scene(n), ring.HOLD_DURATION, "m/s", ring.hold_error),
+              ("ring_slide", "μ = 0.3, m₁ / m₂ = 1.15 e^{μπ}: relative error of the heavy box's acceleration "
+               "against the kinetic capstan law", lambda n, p: ring.slide_scene(n), ring.DURATION, "relative",
+               ring.acceleration_error))),
         Scenario("torsion", "rod clamped at both ends in zero gravity, one end turned by π; relative error of the "
                  "end torque against G·J φ / L (models with material frames)",
                  lambda n, p: twist.twist_scene(n), duration=1.5, quick_duration=1.5, error_kind="relative",

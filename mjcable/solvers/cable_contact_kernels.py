@@ -196,7 +196,7 @@ def self_contacts(S, reach):
     diameter, (j − i − 1) l₀ < 2 r (:meth:`mjcable.scene.CableSpec.overlapping_neighbours`), which would push each
     other apart and stretch the cable."""
     P = S.par[0]
-    first = int(math.ceil(2.0 * P.radius / S.rest[S.chain_seg[0, 0]] * (1.0 - _ROUND_OFF))) + 1
+    first = int(math.ceil(2.0 * P.radius / abs(S.rest[S.chain_seg[0, 0]]) * (1.0 - _ROUND_OFF))) + 1
     first = max(first, 2)
     args = (S.chain_seg, P.self_collision, S.joined_p)
     held = min(P.n_self, S.self_pair.shape[0]) if P.cable_contact else 0  # the last step's pairs, for their anchors

@@ -125,12 +125,14 @@ def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx,
     """Stretch constraints c between particles c and c + ``gap`` within each chain (gap 1: the segments; gap 2: the
     thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23): ``chains`` (C, 2) holds
     each cable's segments [first, stop), so c runs from first to stop − gap (the gap segments between cables have
-    none). α̃ = 0 and k = 1 take :func:`stretch_step_rigid`; ``relax`` non-empty: Jacobi's share of each
-    (:func:`share`)."""
+    none; a negative rest length marks a segment that a ring holds: :mod:`~mjcable.solvers.ring_kernels` projects it).
+    α̃ = 0 and k = 1 take :func:`stretch_step_rigid`; ``relax`` non-empty: Jacobi's share of each (:func:`share`)."""
     rigid = alpha_tilde == 0.0 and k == 1.0
     jacobi = relax.shape[0] > 0
     for chain in range(chains.shape[0]):
         for c in range(chains[chain, 0], chains[chain, 1] + 1 - gap):
+            if rest[c] < 0.0:  # a segment a ring holds (ring_kernels)
+                continue
             i = c
             j = c + gap
             dx = x[i, 0] - x[j, 0]

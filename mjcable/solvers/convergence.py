@@ -380,9 +380,13 @@ def resolve_iterations(scene: Scene, entry, settings, dt: float):
     takes: the fewest, up to :data:`mjcable.solvers.settings.MAX_AUTO_ITERATIONS`, whose expected static strain of
     each cable under its loads (:meth:`~mjcable.scene.Scene.cable_scene`: what junctions add left out) is within
     :data:`STRAIN_WARNING` (where none is, the most;
-    :func:`mjcable.prechecks.check` then warns with the fixes). Other settings are returned as they are."""
+    :func:`mjcable.prechecks.check` then warns with the fixes); with rings the most (their projection after the
+    chains carries the loads on either side through them over the iterations, :mod:`mjcable.solvers.ring_kernels`).
+    Other settings are returned as they are."""
     if entry.family != "particle" or settings.iterations is not None:
         return settings
+    if scene.rings:
+        return dataclasses.replace(settings, iterations=MAX_AUTO_ITERATIONS)
     strains = [strain_estimate(scene.cable_scene(c), entry, dt) for c in range(len(scene.cables))]
     for k in range(1, MAX_AUTO_ITERATIONS + 1):
         trial = dataclasses.replace(settings, iterations=k)

@@ -150,7 +150,9 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
                 lam = lam_d[idx]
                 rl = rest_d[idx]
             cval = length - rl
-            if length > _TINY_LENGTH:
+            if rl < 0.0:  # a segment a ring holds: left out (ring_kernels projects it after the solve)
+                cval, at, rl = 0.0, 0.0, -rl
+            elif length > _TINY_LENGTH:
                 grad[r, 0, 0], grad[r, 0, 1], grad[r, 0, 2] = dx / length, dy / length, dz / length
                 grad[r, 1, 0], grad[r, 1, 1], grad[r, 1, 2] = -dx / length, -dy / length, -dz / length
             else:
@@ -161,7 +163,7 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
             i, j = row_p[r, 0], row_p[r, 1]
             dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
             length = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if lam_gs[seg] < 0.0 and length > _TINY_LENGTH:
+            if lam_gs[seg] < 0.0 and length > _TINY_LENGTH and rest[seg] > 0.0:  # (none through a ring)
                 at = length / -lam_gs[seg]
                 tx, ty, tz = _perpendicular(dx / length, dy / length, dz / length, k)
                 grad[r, 0, 0], grad[r, 0, 1], grad[r, 0, 2] = tx, ty, tz
@@ -287,7 +289,7 @@ def _tension_is_stiff(lam, rest, w):
     with the mean of the two particles' masses per length (``rest`` (n,) m, ``w`` (N,) 1/kg)."""
     limit = 2.0 * _GEOMETRIC_COURANT * _GEOMETRIC_COURANT
     for i in range(rest.shape[0]):
-        if -lam[i] * (w[i] + w[i + 1]) > limit * rest[i]:
+        if rest[i] > 0.0 and -lam[i] * (w[i] + w[i + 1]) > limit * rest[i]:
             return True
     return False
 
@@ -318,6 +320,8 @@ def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         idx = row_idx[r]
         if kind == ROW_STRETCH:
+            if S.rest[idx] < 0.0:  # a segment a ring holds
+                continue
             rhs[r] = -(length - S.rest[idx]) - alpha_s_t * S.lam_s[idx]
             rho = max(rho, abs(rhs[r]) / S.rest[idx])
         else:

@@ -59,7 +59,7 @@ def elastic_energy(a) -> tuple:
     x, w = a["x"], a["w"]
     P = a["par"][0]
     h, n_it, inv_l0sq = float(P["h"]), int(P["iterations"]), float(P["inv_l0sq"])
-    link = a["seg_cable"] >= 0  # the segments of the cables (not the gaps between them)
+    link = (a["seg_cable"] >= 0) & (a["rest"] > 0.0)  # the cables' segments (not the gaps, nor those rings hold)
     triplet = link[:-1] & link[1:]
     seg = np.linalg.norm(np.diff(x, axis=0), axis=1)
     stretch = _potential(((seg - a["rest"]) ** 2)[link],

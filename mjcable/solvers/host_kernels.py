@@ -7,7 +7,8 @@ Per substep (h the substep, P the body pins, p0 / p1 a pin's body point before a
 its trial position):
 
 1. pin targets x_to = from + ((k + 1) / n) (to − from) (grippers move linearly);
-2. per body pin: ``mj_jac`` at p0, n = (x_q − x_p) / max(|x_q − x_p|, 1e-12) (q the neighbour), jn = nᵀ J,
+2. per body pin: ``mj_jac`` at p0, n = (x_q − x_p) / max(|x_q − x_p|, 1e-12) (q the neighbour; a body ring's hub:
+   n its pull, ``ring_dir``), jn = nᵀ J,
    ``mj_solveM`` → w_b = jn · M⁻¹ jnᵀ (:func:`pin_axis_jacobian`, :func:`dot`), per body clamp its body's
    W = J_r M⁻¹ J_rᵀ (:func:`_clamp_inertias`: the clamp turns with it in the solve); the trial step ``mj_getState``,
    ``mj_step``, ``mj_kinematics``, read b_free and turn the clamps' body-frame directions (:func:`turn_clamp`),
@@ -141,6 +142,13 @@ def pin_axis_jacobian(x, p, q, jacp, jn):
 
 
 @_jit
+def axis_jacobian(n, jacp, jn):
+    """jn (nv,) = nᵀ J along the unit vector ``n`` (3,) (a body ring's pull, ``ring_dir``)."""
+    for k in range(jn.shape[0]):
+        jn[k] = n[0] * jacp[0, k] + n[1] * jacp[1, k] + n[2] * jacp[2, k]
+
+
+@_jit
 def dot(a, b):
     """Σ a_k b_k of two (n,) arrays, summed in order (1/kg for w_b = jn · M⁻¹ jnᵀ)."""
     total = 0.0
@@ -250,7 +258,10 @@ def host_before(S, sub, n):
                 arm[j, c] = p0[j, c] - xipos[b, c]
         for j in range(npin):  # the body's inverse mass at its point along the cable
             _call_jac(P.fn_jac, P.model, P.data, S.jacp, S.jacr, p0[j], link_body[j])
-            pin_axis_jacobian(x, link_particle[j], link_neighbour[j], S.jacp, S.jn[0])
+            if link_neighbour[j] >= 0:
+                pin_axis_jacobian(x, link_particle[j], link_neighbour[j], S.jacp, S.jn[0])
+            else:  # a body ring's hub: along the cable's pull on the ring (ring_kernels)
+                axis_jacobian(S.ring_dir[-1 - link_neighbour[j]], S.jacp, S.jn[0])
             _call_solve(P.fn_solve_m, P.model, P.data, S.solved, S.jn, 1)
             w_b = dot(S.jn[0], S.solved[0])
             free_w[j] = w_b if w_b > RIGID else 0.0

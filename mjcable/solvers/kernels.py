@@ -56,6 +56,7 @@ from mjcable.solvers.impact_kernels import resolve_impact, struck
 from mjcable.solvers.impulse_kernels import collect_impulses
 from mjcable.solvers.junction_kernels import junction_begin, junction_forces, junction_sweep
 from mjcable.solvers.winch_kernels import winch_advance
+from mjcable.solvers.ring_kernels import ring_begin, ring_end, ring_sweep
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
     BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
@@ -162,6 +163,8 @@ def begin_substep(S, sub, n_sub):
     S.self_lam_t[:P.n_self] = 0.0
     if S.junction_p.shape[0]:
         junction_begin(S)
+    if S.ring_p.shape[0]:
+        ring_begin(S)
 
 
 @_inline
@@ -203,6 +206,8 @@ def iterate(S, last):
             _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
     if S.junction_p.shape[0]:  # the junctions after the chains (junction_kernels)
         junction_sweep(S)
+    if S.ring_p.shape[0]:  # the rings after them (ring_kernels)
+        ring_sweep(S)
     n_con, n_self = P.n_con, P.n_self
     impact = finished = False
     if n_con:
@@ -236,6 +241,8 @@ def end_substep(S, finished):
         frames_end(S)
     if S.junction_p.shape[0]:
         junction_forces(S)
+    if S.ring_p.shape[0]:
+        ring_end(S)
     return _pin_forces(S)
 
 
@@ -291,11 +298,11 @@ def _pin_forces(S):
 @_inline
 def is_plain(S):
     """Whether a substep is :func:`plain_substep`'s: Gauss-Seidel order, no bending, no clamps, no obstacle shapes,
-    no contacts, no frames and no junctions."""
+    no contacts, no frames, no junctions and no rings."""
     P = S.par[0]
     return (P.order == ORDER_GAUSS_SEIDEL and P.bending == BEND_NONE and S.clamp_pq.shape[0] == 0
             and S.shape_type.shape[0] == 0 and P.n_con == 0 and P.n_self == 0 and S.q.shape[0] == 0
-            and S.junction_p.shape[0] == 0)
+            and S.junction_p.shape[0] == 0 and S.ring_p.shape[0] == 0)
 
 
 @_inline
@@ -497,8 +504,8 @@ def run_steps(S, n_steps, given, rows, out_x, out_v, path, path_pins, until_rele
         if P.warn_step == 0:
             P.warn_step = k + 1
         if stored < rows.shape[0] and rows[stored] == k + 1:
-            out_x[stored, :, :] = S.x
-            out_v[stored, :, :] = S.v
+            out_x[stored, :, :] = S.x[:out_x.shape[1]]  # (the cables' particles: rings' hubs follow them)
+            out_v[stored, :, :] = S.v[:out_v.shape[1]]
             stored += 1
         if P.warning >= 0:
             return k + 1, RUN_WARNING, released, stored

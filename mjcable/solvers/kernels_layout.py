@@ -37,6 +37,9 @@ QUERY_NONE, QUERY_COMPILED, QUERY_PYTHON = 0, 1, 2
 # What a run of steps stopped on (kernels.run_steps): all steps taken, a divergence check, a step that needs a
 # Python query, a socket that let go (until_release), a MuJoCo warning of the user world.
 RUN_DONE, RUN_DIVERGED, RUN_QUERY, RUN_RELEASED, RUN_WARNING = 0, 1, 2, 3, 4
+# A ring's state (SolverState.ring_mode): the cable slides through it, an end slipped out (it holds nothing), or it
+# holds its stop particle at its centre.
+RING_SLIDING, RING_LET_GO, RING_STOPPED = 0, 1, 2
 # The physics checks of a step (monitor_kernels.step_check): passed, then the breaches that stop a run (non-finite
 # state, a particle too far from the origin, a particle's travel too fast, the model's own velocity too fast, a pinned
 # particle torn from its pin, a segment stretched beyond the model's limit), then those that warn once (a segment
@@ -154,7 +157,7 @@ _F1, _F2, _F3, _I1, _I2, _B1 = (_a(types.float64, 1), _a(types.float64, 2), _a(t
 
 #: The state's fields: name, numba type, and what it holds (N particles of all cables, n = N − 1 segments (gaps
 #: between cables included), P pins, K clamps, R direct rows, B obstacles, C/S obstacle/self contact capacity (in
-#: the topology fields C: cables), L body pins, G moving geoms, J junctions, W winches).
+#: the topology fields C: cables), L body pins, G moving geoms, J junctions, W winches; in the ring fields R: rings).
 FIELDS = (
     # the chain
     ("x", _F2, "(N, 3) m positions"), ("v", _F2, "(N, 3) m/s velocities"), ("x0", _F2, "(N, 3) m substep start"),
@@ -286,6 +289,16 @@ FIELDS = (
     ("winch_rho", _F1, "(W,) kg/m"), ("winch_l0", _F1, "(W,) m"),
     ("cable_load", _F2, "(N, 2) kg·m, 1: a particle's Σ share · λₙ and Σ share over its pressing contacts with other "
      "cables, the pooled friction cones' sums (cable_contact_kernels)"),
+    # rings (ring_kernels; R rings, every array (0, ...) without): each ring's centre is a hub particle after the
+    # cables' (held by a pin row: a world pin, or a body pin's coupling), and the cable slides through it
+    ("ring_p", _I1, "(R,) the ring's hub particle"), ("ring_pin", _I1, "(R,) the hub's pin row"),
+    ("ring_seg", _I1, "(R,) the segment the ring holds (its rest length negated while it does)"),
+    ("ring_t", _F1, "(R,) the held material point's fraction along ring_seg (the friction anchor)"),
+    ("ring_mode", _I1, "(R,) RING_SLIDING, RING_LET_GO or RING_STOPPED"),
+    ("ring_mu", _F1, "(R,) the rim's Coulomb μ"), ("ring_stop", _I1, "(R,) the stop particle (−1: none)"),
+    ("ring_cable", _I1, "(R,) the cable (a row of chain_seg) through it"),
+    ("ring_lam", _F1, "(R,) kg·m the material point's multiplier of the substep (the length's: lam_s)"),
+    ("ring_dir", _F2, "(R, 3) unit direction of the cable's pull on the ring (a body ring's inverse mass)"),
 )
 
 
@@ -453,6 +466,17 @@ def _winch_motion(S, winch_at, winch_u, winch_len, winch_speed, winch_rho, winch
 
 
 @_jit
+def _rings(S, ring_p, ring_pin, ring_seg, ring_t, ring_mode, ring_mu, ring_stop, ring_cable):
+    S.ring_p, S.ring_pin, S.ring_seg, S.ring_t, S.ring_mode = ring_p, ring_pin, ring_seg, ring_t, ring_mode
+    S.ring_mu, S.ring_stop, S.ring_cable = ring_mu, ring_stop, ring_cable
+
+
+@_jit
+def _ring_multipliers(S, ring_lam, ring_dir):
+    S.ring_lam, S.ring_dir = ring_lam, ring_dir
+
+
+@_jit
 def _new():
     return structref.new(STATE_TYPE)
 
@@ -490,6 +514,8 @@ _PARTS = (
                  "cable_load")),
     (_winch_topology, ("winch_pin", "winch_cable", "winch_dir", "winch_end", "winch_far", "winch_link")),
     (_winch_motion, ("winch_at", "winch_u", "winch_len", "winch_speed", "winch_rho", "winch_l0")),
+    (_rings, ("ring_p", "ring_pin", "ring_seg", "ring_t", "ring_mode", "ring_mu", "ring_stop", "ring_cable")),
+    (_ring_multipliers, ("ring_lam", "ring_dir")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

@@ -23,7 +23,7 @@ from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import kernels_layout as layout
 from mjcable.solvers.settings import ParticleSettings
 
-__all__ = ["Rules", "StateArrays", "chain_arrays", "shared_cable", "topology", "quat_mul", "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
+__all__ = ["Rules", "StateArrays", "chain_arrays", "ring_fields", "shared_cable", "topology", "quat_mul", "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
 
 ORDER_CODES = {"gauss-seidel": layout.ORDER_GAUSS_SEIDEL, "jacobi": layout.ORDER_JACOBI,
                "direct": layout.ORDER_DIRECT}
@@ -212,6 +212,43 @@ def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
     return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
 
 
+def ring_fields(scene: Scene, segment_length: float) -> dict:
+    """The state's ring fields of ``scene``'s rings (:data:`~mjcable.solvers.kernels_layout.FIELDS`,
+    :mod:`mjcable.solvers.ring_kernels`), as they start: each ring on the segment of its cable that crosses its plane
+    nearest its centre, the anchor where the segment passes it, its hub the particle ``scene.n_particles + k``, its
+    pin row after the scene's pins and free grippers'. Also ``centres`` (R, 3) m, the hubs' start positions, and
+    ``sign`` (n + R,): −1 at the segments the rings hold (their rest lengths negated), else 1."""
+    count = len(scene.rings)
+    n_segments = scene.n_particles - 1 + count
+    seg, t, stop = np.zeros(count, dtype=np.int64), np.zeros(count), np.full(count, -1, dtype=np.int64)
+    centres, pulls = np.zeros((count, 3)), np.zeros((count, 3))
+    for k, ring in enumerate(scene.rings):
+        centre, axis = scene.ring_frame(k)
+        part = scene.cable_slices[ring.cable]
+        p = np.asarray(scene.particles)[part]
+        along = (p - centre) @ axis
+        cross = np.flatnonzero((along[:-1] >= 0.0) != (along[1:] >= 0.0))
+        a, b = along[cross], along[cross + 1]
+        frac = np.where(a == b, 0.5, a / np.where(a == b, 1.0, a - b))[:, None]
+        best = int(cross[np.argmin(np.linalg.norm(p[cross] + frac * (p[cross + 1] - p[cross]) - centre, axis=1))])
+        la, lb = np.linalg.norm(p[best] - centre), np.linalg.norm(p[best + 1] - centre)
+        seg[k], t[k] = part.start + best, la / (la + lb)
+        pull = (p[best] - centre) / max(la, 1e-12) + (p[best + 1] - centre) / max(lb, 1e-12)
+        pulls[k] = pull / max(np.linalg.norm(pull), 1e-12) if np.linalg.norm(pull) > 1e-9 else axis
+        if ring.stop is not None:
+            stop[k] = part.start + ring.stop % len(p)
+        centres[k] = centre
+    sign = np.ones(n_segments)
+    sign[seg] = -1.0
+    first_row = len(scene.pins) + len(scene.grippers)
+    return dict(centres=centres, sign=sign, ring_p=np.arange(count, dtype=np.int64) + scene.n_particles,
+                ring_pin=np.arange(count, dtype=np.int64) + first_row, ring_seg=seg, ring_t=t,
+                ring_mode=np.full(count, layout.RING_SLIDING, dtype=np.int64),
+                ring_mu=np.array([ring.friction for ring in scene.rings], dtype=np.float64), ring_stop=stop,
+                ring_cable=np.array([ring.cable for ring in scene.rings], dtype=np.int64), ring_lam=np.zeros(count),
+                ring_dir=pulls)
+
+
 def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> StateArrays:
     """The solver state of ``scene`` at rest in its start shape: every field, those of the contact query and of a
     user world's host empty (the backend fills them in).
@@ -224,12 +261,15 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     """
     cable = shared_cable(scene, ("radius", "segment_length", "damping"))
     topo = topology(scene, frames=rules.rod_compliance is not None)
+    rings = ring_fields(scene, cable.segment_length)
+    hubs = rings.pop("centres")
+    topo["seg_cable"] = np.concatenate([topo["seg_cable"], np.full(len(hubs), -1, dtype=np.int64)])
     link = topo["seg_cable"] >= 0
-    n_particles = scene.n_particles
+    n_particles = scene.n_particles + len(hubs)  # the cables' particles, then the rings' hubs (held)
     h = dt / settings.substeps
-    x = np.array(scene.particles, dtype=np.float64)
-    mass = np.concatenate([c.particle_masses for c in scene.cables]).astype(np.float64)
-    w = 1.0 / mass
+    x = np.concatenate([np.array(scene.particles, dtype=np.float64), hubs])
+    mass = np.concatenate([c.particle_masses for c in scene.cables] + [np.zeros(len(hubs))]).astype(np.float64)
+    w = np.divide(1.0, mass, out=np.zeros_like(mass), where=mass > 0.0)
     pins = scene.pins
     pin_p = np.array([scene.pin_particle(k) for k in range(len(pins))], dtype=np.int64)
     w[pin_p] = 0.0
@@ -254,7 +294,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         rows = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
     geometric = settings.order == "direct" and rules.geometric_stiffness
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
-    gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH))
+    gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
         gs = _direct_rows(link, rules.bending if rules.direct_bending else "none",
                           clamp_pq if rules.direct_bending else no_clamps, transverse=True)
@@ -286,7 +326,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     a = StateArrays(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
         relax=np.zeros(n_particles), prev=x.copy(), query_x=x.copy(),
-        rest=np.where(link, l0, math.inf), lam_s=np.zeros(n), lam_gs=np.zeros(n),
+        rest=np.where(link, l0, math.inf) * rings.pop("sign"), lam_s=np.zeros(n), lam_gs=np.zeros(n),
         rest_d=np.where(link[:-1] & link[1:], 2.0 * l0, math.inf), lam_d=np.zeros(max(n - 1, 0)),
         lam_b=np.zeros((max(n - 1, 0), 3)),
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
@@ -301,7 +341,7 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         fric_unit=np.zeros((n_particles, 3)), fric_push=np.zeros((n_particles, 3)), fric_cone=np.zeros(n_particles),
         fric_sole=np.zeros(n_particles, dtype=bool),
         anchor=np.zeros((n_particles, 3)), anchor_ob=np.full(n_particles, -1, dtype=np.int64),
-        par=par, **rows, **topo, **_contact_buffers(_CONTACT_CAPACITY * n, _SELF_CONTACT_CAPACITY * n))
+        par=par, **rows, **topo, **rings, **_contact_buffers(_CONTACT_CAPACITY * n, _SELF_CONTACT_CAPACITY * n))
     for name, typ, _ in layout.FIELDS:  # the query's and the host's fields: empty until the backend fills them
         if name not in a:
             a[name] = np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype)))
