@@ -82,6 +82,37 @@ def test_the_winch_video_shows_the_box_rising_as_fast_as_the_winch_reels(tmp_pat
     np.testing.assert_allclose(risen, scale * winch.SPEED * times, rtol=0.0, atol=2.0)  # 2 px: about 1 cm
 
 
+def _orange_rows(image: np.ndarray) -> np.ndarray:
+    """The image rows that hold a box's orange pixels (:func:`_box_row`'s colour rule)."""
+    rgb = image.astype(np.int32)
+    rows, _ = np.nonzero((rgb[..., 0] - rgb[..., 2] > 30) & (rgb[..., 1] > 70) & (rgb[..., 2] < 200))
+    assert rows.size > 50  # the boxes are in view
+    return rows
+
+
+@pytest.mark.slow
+def test_the_ring_video_shows_the_boxes_moving_as_the_atwood_machine_through_the_ring_does(tmp_path):
+    """The fixed side camera: the heavy box's bottom (the lowest orange row) falls and the light box's top (the
+    highest) rises by the heavy-rope Atwood machine's drop (:func:`mjcable.bench.pulley.heavy_rope_drop`, no
+    pulley), H · x / (2 d tan 22.5°) pixels."""
+    path = tmp_path / "ring.mp4"
+    seconds, fps = 0.5, 10
+    assert cli.main(["render", "--family", "ring", "--model", "xpbd", "-o", str(path), "--seconds", str(seconds),
+                     "--fps", str(fps), "--width", str(WIDTH), "--height", str(HEIGHT)]) == cli.EXIT_OK
+    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")
+    next(reader)
+    rows = [_orange_rows(np.frombuffer(frame, np.uint8).reshape(HEIGHT, WIDTH, 3)) for frame in reader]
+    reader.close()
+    assert len(rows) == round(seconds * fps)
+    scale = HEIGHT / (2.0 * videos.RING_CAMERA_DISTANCE * math.tan(math.radians(22.5)))  # pixels per metre
+    expected = scale * pulley.heavy_rope_drop(np.arange(len(rows)) / fps, videos.ring_scene())
+    assert expected[-1] > 30.0
+    fell = np.array([r.max() for r in rows], dtype=float) - rows[0].max()
+    rose = rows[0].min() - np.array([r.min() for r in rows], dtype=float)
+    np.testing.assert_allclose(fell, expected, rtol=0.0, atol=3.0)  # 3 px: about 1.5 cm
+    np.testing.assert_allclose(rose, expected, rtol=0.0, atol=3.0)
+
+
 def test_unknown_family_is_named():
     with pytest.raises(ValueError, match=r"name must be one of the families with a video \('pulley'"):
         videos.get("winch_that_is_not")

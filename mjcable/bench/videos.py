@@ -9,6 +9,9 @@ more entry.
 * ``pulley``: the Atwood machine of :mod:`mjcable.bench.pulley` with boxes of :data:`PULLEY_MASSES` (the heavy box
   drops 0.55 m in the video's :data:`PULLEY_SECONDS`; the must-show's 2 : 1 takes 0.6 s) and a two-coloured spoke
   across the pulley (visual only), so that the rope is seen turning it.
+* ``ring``: the Atwood machine through a frictionless ring of :mod:`mjcable.bench.ring` (2 and 1 kg boxes), seen
+  from the side by a fixed camera (:data:`RING_CAMERA`), with the ring drawn (:func:`ring_scene`; particle solvers:
+  the native models' rim for this rope would be thicker than its start allows).
 * ``winch``: the lift of :mod:`mjcable.bench.winch`, seen from the side by a fixed camera (:data:`WINCH_CAMERA`): the
   winch reels the box up at 0.1 m/s for 3 s, then lowers it again (particle solvers; the others refuse a winch).
 
@@ -22,19 +25,21 @@ Example::
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 from typing import Callable, Dict, Optional, Sequence, Union
 
 import mujoco
+import numpy as np
 
 from mjcable import render as render_
-from mjcable.bench import pulley, winch
+from mjcable.bench import pulley, ring, winch
 from mjcable.render.camera import DEFAULT_ELEVATION
 from mjcable.render.tiles import Drive
 from mjcable.scene import Scene
 
 __all__ = ["FamilyVideo", "VIDEOS", "names", "get", "render", "pulley_scene", "PULLEY_MASSES", "PULLEY_SECONDS",
-           "SPOKE_COLOURS", "winch_scene", "winch_drive", "WINCH_CAMERA", "WINCH_CAMERA_DISTANCE"]
+           "SPOKE_COLOURS", "ring_scene", "RING_CAMERA", "RING_CAMERA_DISTANCE", "winch_scene", "winch_drive", "WINCH_CAMERA", "WINCH_CAMERA_DISTANCE"]
 
 PULLEY_MASSES = (1.1, 1.0)  # kg: a ≈ g (m₁ − m₂) / (m₁ + m₂ + I / R_c²) = 0.38 m/s²
 PULLEY_SECONDS = 1.7  # s: the heavy box drops 0.55 m of its 0.6 m leg difference
@@ -43,6 +48,9 @@ SPOKE_COLOURS = {"blue": (0.1, 0.3, 0.9, 1.0), "green": (0.1, 0.8, 0.2, 1.0)}  #
 _SPOKE_LENGTH = 0.9  # of the pulley's radius, each half
 _SPOKE_HALF_WIDTH = 0.015  # m
 _SPOKE_PROUD = 0.002  # m the spoke stands out of the pulley's faces, so that it shows on them
+RING_CAMERA = "ring_side"  # the ring video's camera: on −y, level with the middle of the boxes' travel, looking along +y
+RING_CAMERA_DISTANCE = 1.5  # m from the plane of the rope
+_RING_SIDES = 16  # the drawn ring's capsules
 WINCH_CAMERA = "winch_side"  # the winch video's camera: on +x, level with the box's middle height, looking along −x
 WINCH_CAMERA_DISTANCE = 1.5  # m from the rope's line
 
@@ -88,6 +96,30 @@ def pulley_scene() -> pulley.AtwoodScene:
     return dataclasses.replace(scene, world=spec)
 
 
+def ring_scene() -> ring.RingAtwoodScene:
+    """:func:`mjcable.bench.ring.atwood_scene` with its ring drawn (a polygon of thin capsules around the hole, visual
+    only: they touch nothing) and a fixed camera :data:`RING_CAMERA` at :data:`RING_CAMERA_DISTANCE` m on −y, level
+    with the middle of the boxes' travel, looking along +y (image right is +x, image up is +z; a 45° field of
+    view)."""
+    scene = ring.atwood_scene()
+    spec = scene.world.spec()
+    centre, axis = scene.ring_frame(0)
+    u = np.cross(axis, (0.0, 1.0, 0.0) if abs(axis[1]) < 0.9 else (1.0, 0.0, 0.0))
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    rim = scene.cable.radius
+    around = centre + (scene.rings[0].hole(scene.cable.radius) + rim) * np.array(
+        [math.cos(a) * u + math.sin(a) * v for a in np.linspace(0.0, 2.0 * math.pi, _RING_SIDES + 1)])
+    for j in range(_RING_SIDES):
+        spec.worldbody.add_geom(name=f"ring_drawn_{j}", type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[rim, 0.0, 0.0],
+                                fromto=np.concatenate([around[j], around[j + 1]]), contype=0, conaffinity=0,
+                                rgba=[0.55, 0.55, 0.6, 1.0])
+    z = ring.RING_HEIGHT - 0.45
+    spec.worldbody.add_camera(name=RING_CAMERA, pos=[0.0, -RING_CAMERA_DISTANCE, z],
+                              xyaxes=[1.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    return dataclasses.replace(scene, world=spec)
+
+
 def winch_scene() -> winch.LiftScene:
     """:func:`mjcable.bench.winch.lift_scene` with a fixed camera :data:`WINCH_CAMERA` at
     :data:`WINCH_CAMERA_DISTANCE` m on +x, level with the middle of the box's travel, looking along −x (image right is
@@ -111,6 +143,8 @@ VIDEOS: Dict[str, FamilyVideo] = {
     for v in (
         FamilyVideo("pulley", "the Atwood machine over a pulley on a frictionless hinge: the rope turns the pulley",
                     pulley_scene, seconds=PULLEY_SECONDS, elevation=PULLEY_ELEVATION),
+        FamilyVideo("ring", "the Atwood machine through a frictionless ring: the rope slides through it", ring_scene,
+                    seconds=ring.DURATION, camera=RING_CAMERA),
         FamilyVideo("winch", "a winch reels a box up 0.3 m and lowers it again", winch_scene,
                     seconds=2.0 * winch.DURATION, drive=winch_drive, camera=WINCH_CAMERA),
     )
