@@ -29,7 +29,12 @@ fix (a ``ValueError`` where no result could be right):
   no pin holds but that starts hanging from an obstacle (most of its segments steeper than :data:`HANGING_SLOPE`,
   and obstacles or a user world to hang from) is estimated held at its highest particle: a rope over a peg that one
   Gauss-Seidel sweep per 2 ms leaves 2–4 % long stretches and swings on the peg, and its friction there holds it
-  only well below Coulomb's threshold (it slid off at 0.85 of the capstan law, ``docs/measurements.md``).
+  only well below Coulomb's threshold (it slid off at 0.85 of the capstan law, ``docs/measurements.md``). With
+  several cables the estimate is not made (each cable's alone would leave out what the cables hang on each other):
+  the sweeping orders warn, and the direct order holds every chain at its stated stiffness;
+* **pulleys on** ``flexrod`` (a pulley of :func:`mjcable.worlds.pulley.add_pulley` in the world): its flex vertices
+  carry no spin, so the rim's friction holds the rope's surface rather than its centreline and the pulley turns
+  faster than the rope runs, by about r / R (measured 2.5 % at r / R = 0.025; the acceleration stays right).
 
 Self-collision with a radius beyond half a segment works where it can (geoms that overlap at rest never collide:
 :meth:`mjcable.scene.CableSpec.overlapping_neighbours`) and is refused by ``flexrod``, whose flex cannot skip them.
@@ -79,8 +84,12 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
         _fall(one, entry, settings, dt)
         if entry.check is not None:
             entry.check(one, settings, dt)
-        if entry.family == "particle" and not several:  # (the solvers' iterations over several chains: not yet)
+        if entry.family == "particle" and not several:  # (the solvers' iterations over several chains: below)
             _iterations(one, entry, settings, dt)
+    if entry.family == "particle" and several:
+        _several_sweeps(scene, entry, settings)
+    if entry.name == "flexrod" and scene.world is not None:
+        _spinless_pulleys(scene, entry)
 
 
 def _warn(message: str) -> None:
@@ -231,3 +240,25 @@ def _rod_iterations(scene: Scene, entry: catalog.ModelEntry, settings, dt: float
           f"{scene.cable.bending_stiffness:.4g} N·m², G·J = {scene.cable.torsion_stiffness:.4g} N·m²) only once the "
           "Gauss-Seidel sweeps converge, which its frames' small rotational inertia makes slow: it may sag and twist "
           "several times as far as stated; use order='direct' (the stated stiffness in one iteration)")
+
+
+def _several_sweeps(scene: Scene, entry: catalog.ModelEntry, settings) -> None:
+    order = getattr(settings, "order", "direct")
+    if order == "direct":
+        return
+    _warn(f"{entry.name}: with order={order!r} and {len(scene.cables)} cables, no estimate of the iterations' "
+          f"static strain is made (one cable's alone would leave out what the cables hang on each other through their "
+          f"contacts and junctions): a cable pinned taut under another sags and swings (measured: a rope over a "
+          f"taut cable at 0.85 of the capstan law creeps at 4 mm/s with pbd and jakobsen at their defaults, where it "
+          f"holds with the direct order); use order='direct'")
+
+
+def _spinless_pulleys(scene: Scene, entry: catalog.ModelEntry) -> None:
+    from mjcable.worlds import pulley  # a world's pulleys only here
+
+    radius = max(c.radius for c in scene.cables)
+    for body, rim in pulley.pulleys(scene.world.model).items():
+        _warn(f"{entry.name}: its flex vertices carry no spin, so pulley {body!r} (rim radius {rim:g} m) turns faster "
+              f"than the rope runs, by about r / R = {radius / rim:.2g} (friction holds the rope's surface, not its "
+              f"centreline, at the rim); the boxes' acceleration is not affected. For the pulley's speed use joints, "
+              f"composite or a particle solver")

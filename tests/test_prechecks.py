@@ -246,3 +246,20 @@ def test_the_heavy_cantilever_of_the_issue_warns_that_gauss_seidel_leaves_it_lim
     assert "order='direct'" in next(m for m in said if "bending stiffness" in m)
     if model == "xpbd":
         assert _fraction(_build(_cantilever(40, 1.0), model, order="direct")[1]) is None
+
+
+@pytest.mark.parametrize("model, order, warns", [("pbd", "gauss-seidel", True), ("jakobsen", "jacobi", True),
+                                                 ("pbd", "direct", False)])
+def test_several_cables_in_sweeping_orders_warn_that_no_strain_estimate_is_made(model, order, warns):
+    """Two cables crossing, the lower one pinned taut: the sweeping orders say that the cables' loads on each other are not
+    estimated and give the direct order; the direct order (the stated stiffness in one solve) says nothing."""
+    taut = CableSpec([(-0.3, 0.0, 1.0), (0.3, 0.0, 1.0)], 20, 0.003, 0.02)
+    rope = CableSpec([(0.0, -0.3, 1.0065), (0.0, 0.3, 1.0065)], 20, 0.003, 0.02)  # lying across it
+    scene = Scene((taut, rope), (Pin(0), Pin(-1)))
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        mjcable.Simulator(scene, model, order=order)
+    said = [str(w.message) for w in record if "no estimate of the iterations' static strain" in str(w.message)]
+    assert bool(said) == warns
+    if warns:
+        assert f"order={order!r}" in said[0] and "use order='direct'" in said[0]

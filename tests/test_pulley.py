@@ -137,6 +137,14 @@ def test_flexrod_accelerates_the_boxes_but_its_rim_runs_ahead():
     assert SLIP_TOLERANCE < found.slip < 0.05  # a measured limit: docs/measurements.md
 
 
+def test_flexrod_says_its_rim_runs_ahead():
+    """The measured limit above is said when the Simulator is made: the pulley named, r / R given."""
+    scene = pulley.atwood_scene()
+    ratio = pulley.ROPE_RADIUS / pulley.PULLEY_RADIUS
+    with pytest.warns(PhysicsWarning, match=rf"pulley '{scene.pulley}'.*r / R = {ratio:.2g}"):
+        Simulator(scene, "flexrod", substeps=4)
+
+
 def test_springs_stretches_under_the_boxes():
     """``springs`` caps its stretch stiffness at the substep's stable limit: under the 2 kg box the rope
     stretches, and the acceleration is off by far more than 2 % at its default substeps."""

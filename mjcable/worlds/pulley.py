@@ -27,9 +27,10 @@ import numpy as np
 
 from mjcable import _validate
 
-__all__ = ["add_pulley", "hinge_name", "HINGE_SUFFIX", "MAX_RADIUS"]
+__all__ = ["add_pulley", "hinge_name", "rim_name", "pulleys", "HINGE_SUFFIX", "RIM_SUFFIX", "MAX_RADIUS"]
 
 HINGE_SUFFIX = "_hinge"  # the hinge joint's name is the body's name followed by this
+RIM_SUFFIX = "_rim"  # the cylinder geom's name is the body's name followed by this
 MAX_RADIUS = 10.0  # m: a larger pulley is no pulley a cable scene holds (the models' start checks reach 1 km)
 _TORSION_ROLL_FRICTION = (0.005, 0.0001)  # MuJoCo's defaults for the torsional and rolling coefficients
 _PRIORITY = 1  # above the cable's geoms (0): the pulley's μ is the one in force, like the scene's obstacles
@@ -42,6 +43,26 @@ _STIFF_TIMECONST = 1e-6
 def hinge_name(body: str) -> str:
     """The name of the hinge joint of the pulley body ``body`` (:func:`add_pulley`'s return value)."""
     return body + HINGE_SUFFIX
+
+
+def rim_name(body: str) -> str:
+    """The name of the cylinder geom (the rim) of the pulley body ``body``."""
+    return body + RIM_SUFFIX
+
+
+def pulleys(model: mujoco.MjModel) -> dict:
+    """The pulleys :func:`add_pulley` made in a compiled ``model``: ``{body name: rim radius in m}`` (a body with a
+    hinge named :func:`hinge_name` and a cylinder named :func:`rim_name`)."""
+    found = {}
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE or not name.endswith(HINGE_SUFFIX):
+            continue
+        body = name[: -len(HINGE_SUFFIX)]
+        rim = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, rim_name(body))
+        if rim >= 0 and model.geom_type[rim] == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            found[body] = float(model.geom_size[rim, 0])
+    return found
 
 
 def add_pulley(spec: mujoco.MjSpec, *, pos, radius: float, width: float, mass: float,
@@ -69,7 +90,7 @@ def add_pulley(spec: mujoco.MjSpec, *, pos, radius: float, width: float, mass: f
       friction: Coulomb μ of the rim on the cable, >= 0. Without slip the rope turns the pulley while the tension
         ratio across it stays below the capstan law's e^{μ θ} (θ the wrap angle, π over a pulley between two
         hanging legs).
-      name: the body's name (the geom is ``name + "_rim"``, the hinge ``name +`` :data:`HINGE_SUFFIX`).
+      name: the body's name (the geom is ``name +`` :data:`RIM_SUFFIX`, the hinge ``name +`` :data:`HINGE_SUFFIX`).
 
     Returns:
       The body's name.
@@ -93,7 +114,7 @@ def add_pulley(spec: mujoco.MjSpec, *, pos, radius: float, width: float, mass: f
     friction = _validate.number("friction", friction, low=0.0)
     if not isinstance(name, str) or not name:
         raise ValueError(f"name must be a non-empty string, got {name!r}")
-    taken = [n for n in (name, name + "_rim", hinge_name(name)) if _named(spec, n)]
+    taken = [n for n in (name, rim_name(name), hinge_name(name)) if _named(spec, n)]
     if taken:
         raise ValueError(f"name {name!r}: the spec already has an element named {taken[0]!r}; pick another name")
     across = max(mass * (3.0 * radius**2 + width**2) / 12.0, inertia)  # >= inertia / 2: a valid inertia
@@ -105,7 +126,7 @@ def add_pulley(spec: mujoco.MjSpec, *, pos, radius: float, width: float, mass: f
     body.iquat = [1.0, 0.0, 0.0, 0.0]
     body.add_joint(name=hinge_name(name), type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, 0.0, 1.0], damping=0.0,
                    frictionloss=0.0, armature=0.0, stiffness=0.0)
-    body.add_geom(name=name + "_rim", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[radius, 0.5 * width, 0.0],
+    body.add_geom(name=rim_name(name), type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[radius, 0.5 * width, 0.0],
                   friction=[friction, *_TORSION_ROLL_FRICTION], priority=_PRIORITY, condim=3,
                   solref=[_STIFF_TIMECONST, 1.0],
                   rgba=[0.55, 0.55, 0.6, 1.0])
