@@ -324,6 +324,6 @@ for _module, _settings, _summary in (
                         winches=True, rings=True))
 register(ModelEntry(name="cosserat", family="particle", settings=CosseratSettings, build=proxy_builder,
                     backend=ParticleBackend, rules=cosserat.rules, twist=True, rest_shapes=REST_SHAPES, frames=True,
-                    sections=True, junctions=True, start_twist=True,
+                    sections=True, several_cables=True, junctions=True, start_twist=True,
                     ignores=getattr(cosserat, "IGNORES", {}),
                     summary="XPBD Cosserat rod: material frames, twist, curved rest shapes, direct solve"))

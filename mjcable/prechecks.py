@@ -86,6 +86,8 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
             entry.check(one, settings, dt)
         if entry.family == "particle" and not several:  # (the solvers' iterations over several chains: below)
             _iterations(one, entry, settings, dt)
+        elif entry.family == "particle" and entry.frames and c == 0:  # a rod's order, once (one stiffness for all)
+            _rod_iterations(one, entry, settings, dt)
     if entry.family == "particle" and several:
         _several_sweeps(scene, entry, settings)
     if entry.name == "flexrod" and scene.world is not None:

@@ -366,11 +366,12 @@ class ParticleBackend:
         self.mj_data.mocap_pos[self._mocap_of_pin[k]] = position
 
     def frames(self) -> np.ndarray:
-        """``(n_segments, 4)`` the segments' material frames (w, x, y, z), body to world: d₃ along the segment."""
+        """``(n_segments, 4)`` the segments' material frames (w, x, y, z), body to world: d₃ along the segment
+        (several cables: ``(Σ nᵢ, 4)`` in cable order, without the gaps between them)."""
         if not self.arrays.q.shape[0]:
             raise ValueError(f"frames: model {self.name!r} has no material frames (its particles carry positions "
                              "only); models with frames: cosserat, joints, composite")
-        return self.arrays.q.copy()
+        return self.arrays.q[self.arrays.seg_cable >= 0]
 
     def add_point_mass(self, index: int, mass: float) -> None:
         """Add ``mass`` kg to particle ``index``'s lumped mass (in the start state too, so :meth:`reset` keeps it);

@@ -31,24 +31,37 @@ Rods") or constraint by constraint (``order="gauss-seidel"``); the equations, wi
   start frames carry. The welds and junctions are solved with the rod's band through its Schur complement (a loop's
   closing rows are not banded), so a rod welds in the direct order and with E > 0 only (the Gauss-Seidel order and
   a limp rod refuse a clamped junction; :mod:`mjcable.solvers.cosserat_weld_kernels`);
-* pins, contacts and friction act on the particles as in ``xpbd``.
+* pins, contacts and friction act on the particles as in ``xpbd``;
+* several cables lie one after the other in one rod state as ``xpbd``'s chains do: the gap segment between two
+  cables carries no rows (its frame, the identity, is turned by nothing), so that the band falls apart into one block
+  per cable, joined only by the junctions' rows; contacts between cables as in ``xpbd``. The cables share the rod's
+  compliances and segment (:data:`ROD_SHARED`); a clamp holds the first cable's start or the last one's end only, and
+  a clamped junction welds a loop of a one-cable scene only (a ``ValueError`` otherwise).
 """
 
 from __future__ import annotations
 
 from mjcable.scene import Scene
 from mjcable.solvers.settings import ParticleSettings
-from mjcable.solvers.state import Rules
+from mjcable.solvers.state import Rules, shared_cable
 
-__all__ = ["rules", "compliances"]
+__all__ = ["rules", "compliances", "ROD_SHARED"]
 
 _LIMP = 1e-12  # N·m²: the bending and twist stiffness standing in for none (E = 0): a free joint in practice
 
 
+#: the cable properties the rod's parameters hold once for all of a scene's cables (:func:`shared_cable`)
+ROD_SHARED = ("segment_length", "stretch_stiffness", "shear stiffness G·A", "bending stiffness E·I₁",
+              "bending stiffness E·I₂", "torsion_stiffness", "mass per segment", "second moment I₁ + I₂")
+
+
 def compliances(scene: Scene) -> tuple:
-    """The six compliances of ``scene``'s cable: stretch–shear (shear, shear, stretch) in 1/(N·m) and bend–twist
-    (bend, bend, twist) in 1/(N·m³) (see the module docstring)."""
-    cable = scene.cable
+    """The six compliances of ``scene``'s cable (of several: their one set, :data:`ROD_SHARED`): stretch–shear
+    (shear, shear, stretch) in 1/(N·m) and bend–twist (bend, bend, twist) in 1/(N·m³) (see the module docstring).
+
+    Raises:
+      ValueError: several cables that differ in one of :data:`ROD_SHARED` (named, with both values)."""
+    cable = shared_cable(scene, ROD_SHARED)
     l0 = cable.segment_length
     ga = cable.shear * cable.area
     shear = 1.0 / (ga * l0) if ga > 0.0 else 0.0  # a rope without E: frames held to the tangent (Kirchhoff)
@@ -63,4 +76,4 @@ def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     del settings, h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
     return Rules(verlet_start=False, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0, k_stretch=1.0, k_bend=1.0,
                  k_clamp=1.0, bending="none", rod_compliance=compliances(scene),
-                 rod_limp=max(*scene.cable.bending_stiffnesses, scene.cable.torsion_stiffness) <= _LIMP)
+                 rod_limp=max(*scene.cables[0].bending_stiffnesses, scene.cables[0].torsion_stiffness) <= _LIMP)

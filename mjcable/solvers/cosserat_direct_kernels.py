@@ -112,7 +112,8 @@ def rod_direct_limp(S, h2):
         c01 = A12 * A02 - A01 * A22
         c02 = A01 * A12 - A11 * A02
         det = A00 * c00 + A01 * c01 + A02 * c02
-        inv = 0.0 if det == 0.0 else 1.0 / det
+        # (a gap between cables has no rows: S⁻¹ = 0 and g = 0 leave both of its neighbours uncoupled through it)
+        inv = 0.0 if det == 0.0 or S.seg_cable[i] < 0 else 1.0 / det
         i00, i01, i02 = c00 * inv, c01 * inv, c02 * inv
         i11 = (A00 * A22 - A02 * A02) * inv
         i12 = (A02 * A01 - A00 * A12) * inv

@@ -165,6 +165,19 @@ def _end_on(S, e):
 
 
 @_inline
+def _ss_on(S, i):
+    """Whether segment i carries stretch–shear rows: a cable's segment, not the gap from one cable's last particle
+    to the next one's first (``seg_cable`` −1), which carries no rows and whose frame no constraint turns."""
+    return S.seg_cable[i] >= 0
+
+
+@_inline
+def _bt_on(S, i):
+    """Whether the bend–twist rows between segments i and i + 1 are on: both of one cable (not beside a gap)."""
+    return S.seg_cable[i] >= 0 and S.seg_cable[i + 1] >= 0
+
+
+@_inline
 def _block(out, jac, k1, wq, i, k2):
     """out ← out + J₁ diag(wq[i]) J₂ᵀ (3×3), J₁ = jac[k1], J₂ = jac[k2] (indices, not views: no reference counts
     in the loops)."""
@@ -355,11 +368,13 @@ def rod_gauss_seidel(S, h2):
     if _end_on(S, 0):
         _gs_end(S, 0, M, 2.0 * a_bt[0], 2.0 * a_bt[1], 2.0 * a_bt[2], 2.0 * inv_l0)
     for i in range(n):
+        if not _ss_on(S, i):  # a gap between cables: no rows
+            continue
         c0, c1, c2 = _linearise_ss(S, i, inv_l0)
         _diag_ss(jac, w, wq, i, M, P.inv_l0sq)
         d0, d1, d2 = _block_update(M, a_ss[0], a_ss[1], a_ss[2], lam_ss, i, c0, c1, c2)
         _apply_ss(S, i, d0, d1, d2, S.x, S.cs_db, True, inv_l0)
-        if i < n - 1:
+        if i < n - 1 and _bt_on(S, i):
             c0, c1, c2 = _linearise_bt(S, i, inv_l0)
             _diag_bt(jac, wq, i, M)
             d0, d1, d2 = _block_update(M, a_bt[0], a_bt[1], a_bt[2], lam_bt, i, c0, c1, c2)
@@ -404,12 +419,14 @@ def _assemble(S, h2, M):
     band[:, :] = 0.0
     rhs[:] = 0.0
     for i in range(n):  # C and the Jacobian blocks of every constraint first: the off-diagonal blocks need both sides
+        if not _ss_on(S, i):  # a gap between cables: its rows and those beside it are the identity, rhs 0
+            continue
         c0, c1, c2 = _linearise_ss(S, i, inv_l0)
         r = 3 + 6 * i
         rhs[r] = -c0 - a_ss[0] * lam_ss[i, 0]
         rhs[r + 1] = -c1 - a_ss[1] * lam_ss[i, 1]
         rhs[r + 2] = -c2 - a_ss[2] * lam_ss[i, 2]
-        if i < n - 1:
+        if i < n - 1 and _bt_on(S, i):
             c0, c1, c2 = _linearise_bt(S, i, inv_l0)
             r = 6 + 6 * i
             rhs[r] = -c0 - a_bt[0] * lam_bt[i, 0]
@@ -428,23 +445,29 @@ def _assemble(S, h2, M):
             band[r, 0] = band[r + 1, 0] = band[r + 2, 0] = 1.0
     for i in range(n):
         r = 3 + 6 * i
+        if not _ss_on(S, i):  # a gap: the identity for its rows and the bend–twist rows on either side of it,
+            for a in range(3):  # no block off the diagonal, so that the band falls apart into one per cable
+                band[r + a, 0] = 1.0
+                band[r + 3 + a, 0] = 1.0
+                band[r - 3 + a, 0] = 1.0  # (a gap is never segment 0 or n − 1)
+            continue
         _diag_ss(jac, w, wq, i, M, inv_l0sq)
         _put_diag(band, r, M, a_ss[0], a_ss[1], a_ss[2])
-        if i > 0:  # ss_{i−1} shares particle i; bt_{i−1} shares frame i
+        if i > 0 and _bt_on(S, i - 1):  # ss_{i−1} shares particle i; bt_{i−1} shares frame i
             M[:, :] = 0.0
             _block_ss_ss(M, jac, 4 * i, 4 * (i - 1), w[i] * inv_l0sq)
             _put(band, r, r - 6, M, False)
             M[:, :] = 0.0
             _block(M, jac, 4 * i + 1, wq, i, 4 * (i - 1) + 3)
             _put(band, r, r - 3, M, False)
-        if i < n - 1:
+        if i < n - 1 and _bt_on(S, i):
             rb = 6 + 6 * i
             _diag_bt(jac, wq, i, M)
             _put_diag(band, rb, M, a_bt[0], a_bt[1], a_bt[2])
             M[:, :] = 0.0
             _block(M, jac, 4 * i + 2, wq, i, 4 * i + 1)  # bt_i with ss_i (frame i)
             _put(band, rb, r, M, False)
-            if i > 0:  # bt_i with bt_{i−1} (frame i)
+            if i > 0 and _bt_on(S, i - 1):  # bt_i with bt_{i−1} (frame i)
                 M[:, :] = 0.0
                 _block(M, jac, 4 * i + 2, wq, i, 4 * (i - 1) + 3)
                 _put(band, rb, rb - 6, M, False)
@@ -452,7 +475,7 @@ def _assemble(S, h2, M):
         M[:, :] = 0.0
         _block(M, jac, 1, wq, 0, 4 * n)
         _put(band, 3, 0, M, False)
-        if n > 1:
+        if n > 1 and _bt_on(S, 0):
             M[:, :] = 0.0
             _block(M, jac, 2, wq, 0, 4 * n)
             _put(band, 6, 0, M, False)
@@ -461,7 +484,7 @@ def _assemble(S, h2, M):
         M[:, :] = 0.0
         _block(M, jac, 4 * n + 1, wq, n - 1, 4 * (n - 1) + 1)
         _put(band, r, r - 3, M, False)
-        if n > 1:
+        if n > 1 and _bt_on(S, n - 2):
             M[:, :] = 0.0
             _block(M, jac, 4 * n + 1, wq, n - 1, 4 * (n - 2) + 3)
             _put(band, r, r - 6, M, False)
@@ -497,12 +520,14 @@ def direct_rows(S):
     dx[:, :] = 0.0
     db[:, :] = 0.0
     for i in range(n):
+        if not _ss_on(S, i):  # a gap between cables: no rows
+            continue
         r = 3 + 6 * i
         lam_ss[i, 0] += rhs[r]
         lam_ss[i, 1] += rhs[r + 1]
         lam_ss[i, 2] += rhs[r + 2]
         _apply_ss(S, i, rhs[r], rhs[r + 1], rhs[r + 2], dx, db, False, inv_l0)
-        if i < n - 1:
+        if i < n - 1 and _bt_on(S, i):
             r = 6 + 6 * i
             lam_bt[i, 0] += rhs[r]
             lam_bt[i, 1] += rhs[r + 1]

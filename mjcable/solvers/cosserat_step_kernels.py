@@ -40,7 +40,8 @@ from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.cosserat_direct_kernels import rod_direct_limp
 from mjcable.solvers.cosserat_weld_kernels import rod_direct_closed
 from mjcable.solvers.cosserat_kernels import (
-    _end_on, _linearise_bt, _linearise_end, _linearise_ss, _qmul, _rotate_body, rod_direct, rod_gauss_seidel,
+    _bt_on, _end_on, _linearise_bt, _linearise_end, _linearise_ss, _qmul, _rotate_body, _ss_on, rod_direct,
+    rod_gauss_seidel,
 )
 from mjcable.solvers.kernels_layout import ORDER_DIRECT
 
@@ -71,10 +72,12 @@ def rod_residual(S, h2):
     n = lam_ss.shape[0]
     rho = 0.0
     for i in range(n):
+        if not _ss_on(S, i):  # a gap between cables: no rows
+            continue
         c0, c1, c2 = _linearise_ss(S, i, inv_l0)
         rho = max(rho, abs(c0 + a_ss[0] * lam_ss[i, 0]), abs(c1 + a_ss[1] * lam_ss[i, 1]),
                   abs(c2 + a_ss[2] * lam_ss[i, 2]))
-        if full and i < n - 1:
+        if full and i < n - 1 and _bt_on(S, i):
             c0, c1, c2 = _linearise_bt(S, i, inv_l0)
             rho = max(rho, 0.5 * l0 * abs(c0 + a_bt[0] * lam_bt[i, 0]), 0.5 * l0 * abs(c1 + a_bt[1] * lam_bt[i, 1]),
                       0.5 * l0 * abs(c2 + a_bt[2] * lam_bt[i, 2]))
@@ -127,6 +130,8 @@ def _align_frames(S):
     onto the frames alone)."""
     x, q = S.x, S.q
     for i in range(q.shape[0]):
+        if not _ss_on(S, i):  # a gap's frame: no constraint turns it
+            continue
         w, a, b, c = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
         t0, t1, t2 = 2.0 * (a * c + w * b), 2.0 * (b * c - w * a), 1.0 - 2.0 * (a * a + b * b)  # d₃
         e0, e1, e2 = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]

@@ -158,6 +158,8 @@ def rod_direct_closed(S, h2):
                         for a in range(3):
                             A[e + a, 3 * (nw + j2) + a] += sign * (1.0 if side2 == 1 else -1.0) * w[p]
             for seg in range(max(p - 1, 0), min(p, n - 1) + 1):  # the stretch–shear rows at particle p
+                if S.seg_cable[seg] < 0:  # (a gap between cables has none)
+                    continue
                 s_ss = 1.0 if seg == p - 1 else -1.0
                 for a in range(3):
                     for b in range(3):

@@ -116,9 +116,11 @@ def rod_energy(a) -> tuple:
     l0 = float(np.sqrt(1.0 / P["inv_l0sq"]))
     a_ss = (float(P["ss_alpha1"]), float(P["ss_alpha2"]), float(P["ss_alpha3"]))
     a_bt = (float(P["bt_alpha1"]), float(P["bt_alpha2"]), float(P["bt_alpha3"]))
+    link = a["seg_cable"] >= 0  # the segments of the cables (not the gaps between them, which store nothing)
     c_ss = _rotate_back(q, np.diff(x, axis=0) / l0) - np.array([0.0, 0.0, 1.0])
-    stretch = float(np.sum(_quadratic(c_ss, a_ss)))
-    bt = _quadratic(2.0 / l0 * _relative(q[:-1], q[1:]) - a["darboux0"], a_bt) if len(q) > 1 else np.zeros(3)
+    stretch = float(np.sum(_quadratic(c_ss[link], a_ss)))
+    bt = (_quadratic((2.0 / l0 * _relative(q[:-1], q[1:]) - a["darboux0"])[link[:-1] & link[1:]], a_bt)
+          if len(q) > 1 else np.zeros(3))
     halves = (2.0 * a_bt[0], 2.0 * a_bt[1], 2.0 * a_bt[2])
     for e, k in enumerate(a["end_clamp"]):
         if k >= 0 and a["pin_active"][a["clamp_pin"][k]]:

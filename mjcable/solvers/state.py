@@ -147,7 +147,12 @@ def _contact_buffers(capacity: int, self_capacity: int) -> dict:
 #: how a cable's property that the parameter record holds once for all cables is read (:func:`shared_cable`)
 _SHARED = {"radius": lambda c: c.radius, "segment_length": lambda c: c.segment_length, "damping": lambda c: c.damping,
            "stretch_stiffness": lambda c: c.stretch_stiffness, "bending_stiffness": lambda c: c.bending_stiffness,
-           "mass per segment": lambda c: c.mass / c.n_segments, "friction": lambda c: c.friction}
+           "mass per segment": lambda c: c.mass / c.n_segments, "friction": lambda c: c.friction,
+           # a rod with frames (cosserat): its rows' compliances and its frames' inertia
+           "shear stiffness G·A": lambda c: c.shear * c.area, "torsion_stiffness": lambda c: c.torsion_stiffness,
+           "bending stiffness E·I₁": lambda c: c.bending_stiffnesses[0],
+           "bending stiffness E·I₂": lambda c: c.bending_stiffnesses[1],
+           "second moment I₁ + I₂": lambda c: sum(c.second_moments)}
 _SAME = 1e-12  # relative: two cables' properties this close count as one
 
 
@@ -407,16 +412,9 @@ def darboux(frames: np.ndarray, segment_length: float) -> np.ndarray:
     return 2.0 / segment_length * r[:, 1:]
 
 
-def _rod_arrays(scene: Scene, clamps: list, *, welds: bool) -> dict:
-    """The frame fields of a Cosserat rod (:data:`~mjcable.solvers.kernels_layout.FIELDS`, "material frames") for
-    ``scene``'s start curve: frames without twist, at rest; the rest Darboux vectors zero (``rest_shape="straight"``)
-    or the start curve's (``"start"``); each segment's rotational inertia that of its slice of the rod, ρ l₀ (I, I, J)
-    = m (r²/4, r²/4, r²/2); a clamp's frame starts as its segment's.
-
-    Raises:
-      ValueError: a clamp at an interior particle (a clamped frame is a constraint at the rod's start or end), or a
-        clamped junction without ``welds`` (:func:`_welds`)."""
-    cable = scene.cable
+def _cable_frames(cable) -> tuple:
+    """One cable's start frames ``(n, 4)`` (its section axis and start twist in them) and the same without the
+    twist (:func:`_rod_arrays`)."""
     n = cable.n_segments
     q = start_frames(cable.particles)
     if cable.section_axis is not None:  # the section's d₁ turned about d₃ onto the given axis, the same turn for all
@@ -425,24 +423,55 @@ def _rod_arrays(scene: Scene, clamps: list, *, welds: bool) -> dict:
     if cable.start_twist != 0.0:  # segment i turned about d₃ by Φ (i + ½) / n: a uniform elastic twist
         half = 0.5 * cable.start_twist * (np.arange(n) + 0.5) / n
         q = quat_mul(q, np.stack([np.cos(half), 0.0 * half, 0.0 * half, np.sin(half)], axis=1))
-    m = cable.mass / n
+    rest = darboux(untwisted, cable.segment_length) if cable.rest_shape == "start" else np.zeros((max(n - 1, 0), 3))
+    return q, rest
+
+
+def _rod_arrays(scene: Scene, clamps: list, *, welds: bool) -> dict:
+    """The frame fields of a Cosserat rod (:data:`~mjcable.solvers.kernels_layout.FIELDS`, "material frames") for
+    ``scene``'s start curve: frames without twist, at rest; the rest Darboux vectors zero (``rest_shape="straight"``)
+    or the start curve's (``"start"``); each segment's rotational inertia that of its slice of the rod, ρ l₀ (I, I, J)
+    = m (r²/4, r²/4, r²/2); a clamp's frame starts as its segment's. Several cables lie one after the other, as the
+    chains do (:func:`topology`): the gap segment between two cables has the identity frame, which no constraint
+    turns, and the bend–twist rows beside it rest at zero (they are not solved).
+
+    Raises:
+      ValueError: a clamp at an interior particle (a clamped frame is a constraint at the rod's start or end: the
+        first cable's first particle or the last cable's last), or a clamped junction without ``welds``
+        (:func:`_welds`)."""
+    cables = scene.cables
+    n = scene.n_particles - 1
+    frames, rests = [], []
+    for c, cable in enumerate(cables):
+        q_c, rest_c = _cable_frames(cable)
+        frames.append(q_c)
+        rests.append(rest_c)
+        if c < len(cables) - 1:  # the gap to the next cable: the identity frame, and the two rows beside it
+            frames.append(np.array([[1.0, 0.0, 0.0, 0.0]]))
+            rests.append(np.zeros((2, 3)))
+    q = np.concatenate(frames)
+    omega0 = np.concatenate(rests).reshape(max(n - 1, 0), 3)
+    cable = cables[0]  # (the per-segment mass and section are one for all cables: shared_cable)
+    m = cable.mass / cable.n_segments
     i1, i2 = cable.second_moments
     inertia = np.tile([m * i1 / cable.area, m * i2 / cable.area, m * (i1 + i2) / cable.area], (n, 1))
     ends = np.full(2, -1, dtype=np.int64)
     for row, k in enumerate(clamps):
         p = scene.pin_particle(k)
         if p not in (0, n):
-            raise ValueError(f"pins[{k}]: model 'cosserat' clamps the rod's first or last particle (0 or {n}), got "
-                             f"a clamp at particle {p}; drop clamp=True or move the pin to an end")
+            where = ("" if len(cables) == 1 else
+                     "; of several cables, only the first cable's first particle or the last cable's last")
+            raise ValueError(f"pins[{k}]: model 'cosserat' clamps the rod's first or last particle (0 or {n}{where}),"
+                             f" got a clamp at particle {p}; drop clamp=True or move the pin to an end")
         if ends[0 if p == 0 else 1] < 0:
             ends[0 if p == 0 else 1] = row
     seg = np.array([min(scene.pin_particle(k), n - 1) for k in clamps], dtype=np.int64)
     # a clamp holds its segment's frame, turned back to its particle's share of the start twist (0 at the start,
     # Φ at the end: the twist then starts uniform, half a segment from the clamp too)
-    turn = np.array([(-0.25 if scene.pin_particle(k) == 0 else 0.25) * cable.start_twist / n for k in clamps])
+    turn = np.array([(-0.25 if scene.pin_particle(k) == 0 else 0.25)
+                     * cables[scene.pin_cable(k)].start_twist / cables[scene.pin_cable(k)].n_segments
+                     for k in clamps])
     held = quat_mul(q[seg], np.stack([np.cos(turn), 0.0 * turn, 0.0 * turn, np.sin(turn)], axis=1).reshape(-1, 4))
-    rest = cable.rest_shape
-    omega0 = darboux(untwisted, cable.segment_length) if rest == "start" else np.zeros((max(n - 1, 0), 3))
     rows = 6 * n + 3
     return dict(q=q, q0=q.copy(), omega=np.zeros((n, 3)), inertia=inertia, wq=1.0 / inertia, darboux0=omega0,
                 lam_ss=np.zeros((n, 3)), lam_bt=np.zeros((max(n - 1, 0), 3)), lam_end=np.zeros((2, 3)),
@@ -469,6 +498,10 @@ def _welds(scene: Scene, q: np.ndarray, able: bool) -> dict:
             raise ValueError(f"junctions[{j}]: model 'cosserat' welds a clamped junction's frames in its direct solve "
                              f"only (order='direct', a cable with young > 0), got order='gauss-seidel' or a limp "
                              f"cable; use order='direct' and young > 0, or clamp=False")
+        if len(scene.cables) > 1:
+            raise ValueError(f"junctions[{j}]: model 'cosserat' welds a clamped junction's frames in a scene of one "
+                             f"cable only (a loop of its ends), got clamp=True in a scene of {len(scene.cables)} "
+                             f"cables; use clamp=False (a ball joint)")
         ends = scene.junction_particles(j)
         segs = [min(p, n - 1) for p in ends]
         if not all(p in (0, n) for p in ends) or segs[0] == segs[1]:
