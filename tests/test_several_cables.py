@@ -212,7 +212,8 @@ def test_a_model_without_junctions_refuses_them_up_front(model):
 
 G = 9.81
 PARTICLE = ("jakobsen", "pbd", "xpbd")
-SETTLED = {"jakobsen": {"iterations": 50}, "pbd": {"iterations": 50}, "xpbd": {}}  # converged statics (catenary test)
+ROD = pytest.param("cosserat", marks=pytest.mark.slow)  # the Cosserat rod's several cables (its own compile: slow)
+SETTLED = {"jakobsen": {"iterations": 50}, "pbd": {"iterations": 50}, "xpbd": {}, "cosserat": {}}  # converged statics (catenary test)
 
 
 def _sagging(start, end, length, n, **fields):
@@ -230,7 +231,7 @@ def _sagging(start, end, length, n, **fields):
     return make(depth)
 
 
-@pytest.mark.parametrize("model", PARTICLE)
+@pytest.mark.parametrize("model", PARTICLE + (ROD,))
 def test_two_cables_hang_as_two_catenaries(model):
     """Two cables, each pinned at its ends, side by side in one state: each settles on its own discrete catenary
     and its pins carry its own weight."""
@@ -270,7 +271,7 @@ def test_elastic_energy_counts_each_cables_own_rows():
     assert energy.gravity == pytest.approx(G * float(masses @ x[:, 2]), rel=1e-12)  # −Σ m g·x, g = −G ẑ
 
 
-@pytest.mark.parametrize("model", PARTICLE)
+@pytest.mark.parametrize("model", PARTICLE + ("cosserat",))
 def test_y_harness_settles_on_the_reference(model):
     """Three 0.6 m cables joined at one junction (two Junctions), their free ends pinned at different heights: the
     particles within 1 mm of the discrete three-leg reference (mjcable.reference_harness.y_harness), the pins carry
@@ -297,7 +298,7 @@ def test_y_harness_settles_on_the_reference(model):
         np.testing.assert_allclose(sim.junction_forces[j], held, atol=0.02 * np.linalg.norm(held))
 
 
-@pytest.mark.parametrize("model", PARTICLE)
+@pytest.mark.parametrize("model", PARTICLE + (ROD,))
 @pytest.mark.parametrize("dt", [0.002, 0.005])
 def test_a_cable_thrown_onto_another_never_passes_through(model, dt):
     """A free cable falls across a pinned one at right angles, striking it at 5 m/s: their centrelines never come
@@ -353,6 +354,8 @@ def _slide_speed(model: str, dt: float, factor: float, *, held: bool = False, **
     # the Gauss-Seidel sweeps leave the cable pinned taut 4 cm of sag, on which the rope bounces
     # (docs/measurements.md); the direct order keeps it straight (the tension's geometric stiffness)
     ("pbd", 0.002, dict(order="direct")), ("jakobsen", 0.002, dict(order="direct")),
+    pytest.param("cosserat", 0.002, {}, marks=pytest.mark.slow),
+    pytest.param("cosserat", 0.005, {}, marks=pytest.mark.slow),
 ])
 def test_rope_over_a_taut_cable_obeys_the_heavy_capstan_law(model, dt, settings):
     """Held (slower than 2 mm/s) at 0.85 e^{μπ} of the heavy-rope ratio with R_c = r₁ + r₂, sliding (faster than
@@ -385,7 +388,7 @@ def test_a_ring_closed_by_a_junction_hangs_from_one_pin():
     assert x[:, 2].min() < 0.85  # it hangs as a loop below its pin
 
 
-@pytest.mark.parametrize("model", PARTICLE)
+@pytest.mark.parametrize("model", PARTICLE + ("cosserat",))
 def test_cables_of_differing_radius_are_refused_naming_it(model):
     thick = mjcable.CableSpec([[0.0, 0.3, 1.0], [0.6, 0.3, 1.0]], 10, 0.01, 0.06)
     with pytest.raises(ValueError, match=r"cables\[1\]: the particle solvers hold one radius for all cables, got "

@@ -51,8 +51,8 @@ _LIMP = 1e-12  # N·m²: the bending and twist stiffness standing in for none (E
 
 
 #: the cable properties the rod's parameters hold once for all of a scene's cables (:func:`shared_cable`)
-ROD_SHARED = ("segment_length", "stretch_stiffness", "shear stiffness G·A", "bending stiffness E·I₁",
-              "bending stiffness E·I₂", "torsion_stiffness", "mass per segment", "second moment I₁ + I₂")
+ROD_SHARED = ("radius", "segment_length", "stretch_stiffness", "shear stiffness G·A", "bending stiffness E·I₁",
+              "bending stiffness E·I₂", "torsion_stiffness")
 
 
 def compliances(scene: Scene) -> tuple:

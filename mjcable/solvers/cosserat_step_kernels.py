@@ -152,9 +152,10 @@ def rod_direct_safeguarded(S, h2):
     """One direct iteration with the nonlinear safeguard of the module docstring (``h2`` = h², s²): the first solve,
     and where its bound is above the floor (a limp rod: where a pin moves more than ``_ROPE_YANK`` segments in a
     substep), :func:`_newton`."""
-    if S.par[0].rod_limp:
+    P = S.par[0]
+    if P.rod_limp:
         rod_direct_limp(S, h2)
-        if _pins_travel(S) > _ROPE_YANK:
+        if _pins_travel(S) > _ROPE_YANK or (P.cable_contact and P.n_self > 0):
             _newton(S, h2)
     elif _rod_direct(S, h2) > _RESIDUAL_FLOOR:
         _newton(S, h2)

@@ -151,8 +151,7 @@ _SHARED = {"radius": lambda c: c.radius, "segment_length": lambda c: c.segment_l
            # a rod with frames (cosserat): its rows' compliances and its frames' inertia
            "shear stiffness G·A": lambda c: c.shear * c.area, "torsion_stiffness": lambda c: c.torsion_stiffness,
            "bending stiffness E·I₁": lambda c: c.bending_stiffnesses[0],
-           "bending stiffness E·I₂": lambda c: c.bending_stiffnesses[1],
-           "second moment I₁ + I₂": lambda c: sum(c.second_moments)}
+           "bending stiffness E·I₂": lambda c: c.bending_stiffnesses[1]}
 _SAME = 1e-12  # relative: two cables' properties this close count as one
 
 
@@ -413,8 +412,8 @@ def darboux(frames: np.ndarray, segment_length: float) -> np.ndarray:
 
 
 def _cable_frames(cable) -> tuple:
-    """One cable's start frames ``(n, 4)`` (its section axis and start twist in them) and the same without the
-    twist (:func:`_rod_arrays`)."""
+    """One cable's start frames ``(n, 4)`` (its section axis and start twist in them) and its rest Darboux vectors
+    ``(n − 1, 3)`` (:func:`_rod_arrays`)."""
     n = cable.n_segments
     q = start_frames(cable.particles)
     if cable.section_axis is not None:  # the section's d₁ turned about d₃ onto the given axis, the same turn for all
@@ -441,20 +440,22 @@ def _rod_arrays(scene: Scene, clamps: list, *, welds: bool) -> dict:
         (:func:`_welds`)."""
     cables = scene.cables
     n = scene.n_particles - 1
-    frames, rests = [], []
+    frames, rests, inertias = [], [], []
     for c, cable in enumerate(cables):
         q_c, rest_c = _cable_frames(cable)
+        m = cable.mass / cable.n_segments
+        i1, i2 = cable.second_moments
+        one = [m * i1 / cable.area, m * i2 / cable.area, m * (i1 + i2) / cable.area]
         frames.append(q_c)
         rests.append(rest_c)
+        inertias.append(np.tile(one, (cable.n_segments, 1)))
         if c < len(cables) - 1:  # the gap to the next cable: the identity frame, and the two rows beside it
             frames.append(np.array([[1.0, 0.0, 0.0, 0.0]]))
             rests.append(np.zeros((2, 3)))
+            inertias.append(np.array([one]))  # (unused: no row turns a gap's frame)
     q = np.concatenate(frames)
     omega0 = np.concatenate(rests).reshape(max(n - 1, 0), 3)
-    cable = cables[0]  # (the per-segment mass and section are one for all cables: shared_cable)
-    m = cable.mass / cable.n_segments
-    i1, i2 = cable.second_moments
-    inertia = np.tile([m * i1 / cable.area, m * i2 / cable.area, m * (i1 + i2) / cable.area], (n, 1))
+    inertia = np.concatenate(inertias)
     ends = np.full(2, -1, dtype=np.int64)
     for row, k in enumerate(clamps):
         p = scene.pin_particle(k)
