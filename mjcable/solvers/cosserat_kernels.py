@@ -33,7 +33,10 @@ The direct solve orders the rows per segment, [start clamp, ss₀, bt₀, ss₁,
 matrix of half-bandwidth 8, 3 × 3 blocks with two below the diagonal ([D18] §4: a chain is a tree whose elimination
 order has no fill-in), solved with :func:`mjcable.solvers.cosserat_direct_kernels.block_ldlt_solve` (a limp rod's,
 without bend–twist rows, with :func:`mjcable.solvers.cosserat_direct_kernels.rod_direct_limp`); one solve per
-iteration is Newton's step on the constraints (exact where they are linear). Rows with α = 0 get a relative compliance of ``_REGULARIZATION``.
+iteration is Newton's step on the constraints (exact where they are linear). Several cables lie one after the
+other; the gap segment between two (``seg_cable`` −1) has no rows, and its rows and the bend–twist rows beside it
+are the identity with right-hand side 0 and no block off the diagonal, so that the factorisation falls apart into
+one block per cable (:func:`_ss_on`, :func:`_bt_on`). Rows with α = 0 get a relative compliance of ``_REGULARIZATION``.
 
 Frames are predicted with q ← q + (h/2) q ⊗ (0, ω) normalised (ω in the body frame, gyroscopic term
 −D (ω × I ω) explicit), and ω = (2/h) Im(q₀̄ ⊗ q) after the solve ([KS16] Eqs. 27–28, [M20] Eq. 8 and Algorithm 2):
