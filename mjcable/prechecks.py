@@ -34,7 +34,10 @@ fix (a ``ValueError`` where no result could be right):
   the sweeping orders warn, and the direct order holds every chain at its stated stiffness;
 * **pulleys on** ``flexrod`` (a pulley of :func:`mjcable.worlds.pulley.add_pulley` in the world): its flex vertices
   carry no spin, so the rim's friction holds the rope's surface rather than its centreline and the pulley turns
-  faster than the rope runs, by about r / R (measured 2.5 % at r / R = 0.025; the acceleration stays right).
+  faster than the rope runs, by about r / R (measured 2.5 % at r / R = 0.025; the acceleration stays right);
+* **rings on a particle solver's sweeps**: the rings' projection after the chains' Gauss-Seidel or Jacobi sweeps
+  carries heavy loads through a ring only over many iterations, irregularly (:func:`_rings`); the direct order
+  converges them (the Atwood machine through a ring within 0.16 % on all three solvers, ``docs/measurements.md``).
 
 Self-collision with a radius beyond half a segment works where it can (geoms that overlap at rest never collide:
 :meth:`mjcable.scene.CableSpec.overlapping_neighbours`) and is refused by ``flexrod``, whose flex cannot skip them.
@@ -62,6 +65,10 @@ __all__ = ["check", "resolve_iterations", "STRAIN_WARNING", "STIFFNESS_TOLERANCE
 
 STIFFNESS_TOLERANCE = 0.1  # a rod whose expected sag is off by more than this fraction warns
 MAX_SUBSTEP_FACTOR = 256  # the most substeps (times the given ones) a fix suggests; beyond, only another order
+#: what :func:`_rings` warns with (docs/measurements.md, 2026-11-27: the Atwood machine through a ring)
+RING_MEASURED = ("the Atwood machine through a ring (2 and 1 kg boxes on a 21 g rope, dt = 2 ms) was 49 % off at 8 "
+                 "iterations × 4 substeps (Gauss-Seidel) and 0.4–5 % at 16–60 iterations × 4–8 substeps, not "
+                 "steadily better with more")
 _UNITS = {"stretch_stiffness": "N", "young": "Pa", "damping": "1/s", "radius": "m", "mass": "kg"}
 _STACK = 4  # warnings point at the Simulator's caller: warn ← a check ← check ← Simulator.__init__ ← caller
 
@@ -92,6 +99,8 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
         _several_sweeps(scene, entry, settings)
     if entry.name == "flexrod" and scene.world is not None:
         _spinless_pulleys(scene, entry)
+    if entry.family == "particle":
+        _rings(scene, entry, settings, dt)
 
 
 def _warn(message: str) -> None:
@@ -130,6 +139,18 @@ def _fall(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
               f"substeps = {h:.3g} s), more than a segment ({l0:.3g} m): one substep's constraints and contacts no "
               f"longer follow the cable, which stretches, passes through obstacles or diverges; the substep must be at "
               f"most sqrt(l₀ / |g|) = {longest:.3g} s: use {fix}")
+
+
+def _rings(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
+    """Rings on a particle solver's Gauss-Seidel or Jacobi order: the rings' projection after the chains' sweeps
+    carries the loads either side through a ring only over many, irregularly converging iterations
+    (:data:`RING_MEASURED`); the direct order solves each side's chain at once."""
+    if not scene.rings or settings.order == "direct":
+        return
+    how = f"order={settings.order!r}, {settings.iterations} iteration(s) × {settings.substeps} substeps at dt={dt:g} s"
+    _warn(f"{entry.name}: with {how}, the rings' projection after the chain's sweeps carries the loads either side "
+          f"of a ring through it only over many iterations: {RING_MEASURED}; use order='direct' (the chain solved at "
+          f"once: 0.16 %)")
 
 
 def _stated_bending(scene: Scene, rules, settings) -> Optional[float]:

@@ -8,9 +8,9 @@ for the ring's rim friction (the boxes hold below T₁ / T₂ = e^{μθ} and sli
 the ring (and the body that carries it) with its weight; a cable whose end slipped out falls freely.
 
 The Atwood machine's boxes hang from a light rope: the rings' projection after the chains needs iterations to carry
-their weight through the ring. ``xpbd``'s default takes the most automatic iterations with rings (8); ``pbd`` and
-``jakobsen`` (Gauss-Seidel chains) are given 30 iterations and 8 substeps (``docs/measurements.md``: at their
-defaults the acceleration is off by 51 %).
+their weight through the ring. ``xpbd``'s default takes the most automatic iterations with rings (8) and the direct
+order; ``pbd`` and ``jakobsen`` are given the direct order too (``docs/measurements.md``: at their Gauss-Seidel
+defaults the acceleration is off by 49 %, and they warn).
 """
 
 import math
@@ -27,8 +27,8 @@ G = 9.81
 MU = 0.3
 CAPSTAN = math.exp(MU * math.pi)  # the issue's threshold: m₁ / m₂ = e^{μπ}
 #: settings that converge the boxes' weight through the ring (module docstring)
-CONVERGED = {"xpbd": {}, "pbd": dict(iterations=30, substeps=8),
-             "jakobsen": dict(iterations=30, substeps=8)}
+CONVERGED = {"xpbd": {}, "pbd": dict(order="direct"), "jakobsen": dict(order="direct")}
+ATWOOD_TENSION = 2.0 * 2.0 * 1.0 * G / 3.0  # N: 2 m₁ m₂ g / (m₁ + m₂), the light rope's tension
 
 
 def _quiet(fn, *args, **kw):
@@ -70,6 +70,35 @@ def test_friction_in_a_ring_holds_below_the_capstan_ratio_and_slides_above(model
     found = ring.measure(_quiet(ring.record, _quiet(Simulator, slide, model, dt=0.002, **CONVERGED[model]), 0.5))
     assert found.speed > 0.1 and found.speed > 0.6 * expected * 0.5
     assert abs(found.acceleration / expected - 1.0) < 0.15
+
+
+def test_a_ring_on_the_gauss_seidel_order_warns_with_the_direct_order():
+    """``pbd`` at its defaults (Gauss-Seidel, 8 iterations × 4 substeps) is 49 % off on the Atwood machine through a
+    ring (docs/measurements.md): the Simulator says so, with the direct order as the fix; that order does not
+    warn."""
+    with pytest.warns(PhysicsWarning, match=r"pbd: with order='gauss-seidel'.*rings' projection.*49 %.*"
+                                            r"use order='direct'"):
+        Simulator(ring.atwood_scene(), "pbd")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        Simulator(ring.atwood_scene(), "pbd", order="direct")
+    assert not [w for w in caught if "ring" in str(w.message)]
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="known limit (docs/measurements.md, 2026-11-27): the ring's projection after "
+                   "the direct solve converges slowly against the boxes, and the unconverged rope rings like a spring")
+def test_the_tension_through_a_frictionless_ring_is_steady():
+    """The Atwood machine through a frictionless ring once the start's 3 mm of slack is taken up (from 0.2 s): each
+    box's pin force stays within 10 % of the tension 2 m₁ m₂ g / (m₁ + m₂) (the 21 g rope moves it by under 1 %:
+    m₁ (g − a) and m₂ (g + a) with a within 1 % of the light rope's, and the rope's own weight either side)."""
+    sim = _quiet(Simulator, ring.atwood_scene(), "xpbd", dt=0.002)
+    sim.step(0.2)
+    forces = []
+    for _ in range(100):
+        sim.step(0.002)
+        forces.append(np.linalg.norm(sim.pin_forces, axis=1))
+    assert np.all(np.abs(np.array(forces) / ATWOOD_TENSION - 1.0) < 0.1)
 
 
 def _hanging(stop=None, world=None, body=None, n=30):
