@@ -23,3 +23,19 @@ def catenary_at_arc(length: float, span: float, height: float, s: np.ndarray) ->
 @pytest.fixture
 def catenary():
     return catenary_at_arc
+
+
+# The quick suite (the README's test command, under 5 minutes from a clean clone on 2 cores) runs the tests
+# parametrized over models on one model of each kind (xpbd, cosserat, joints, flexrod); their cases on these models run
+# with the slow tests (`-m slow`, which CI runs too).
+SLOW_MODELS = frozenset({"springs", "composite", "jakobsen", "pbd"})
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest's -m selection reads the marks
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        spec = getattr(item, "callspec", None)
+        models = [v for v in spec.params.values() if isinstance(v, str)] if spec is not None else []
+        models.append(getattr(getattr(item, "cls", None), "model", None))  # the conformance suites' classes
+        if any(m in SLOW_MODELS for m in models) and item.get_closest_marker("slow") is None:
+            item.add_marker(pytest.mark.slow)
