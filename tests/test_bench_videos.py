@@ -54,40 +54,38 @@ def test_the_pulley_video_shows_the_rope_turning_the_pulley(tmp_path):
     np.testing.assert_allclose(np.degrees(turned), expected, rtol=0.0, atol=ANGLE_TOLERANCE)
 
 
-def _box_row(image: np.ndarray) -> float:
-    """The image row of the winch's box: the mean row of its orange pixels (red well above blue, green lit; the
-    rope is dark red, the background black, the labels white)."""
+def _orange_rows(image: np.ndarray) -> np.ndarray:
+    """The image rows that hold a box's orange pixels (red well above blue, green lit; the ropes are dark red, the
+    background black, the labels white)."""
     rgb = image.astype(np.int32)
     rows, _ = np.nonzero((rgb[..., 0] - rgb[..., 2] > 30) & (rgb[..., 1] > 70) & (rgb[..., 2] < 200))
-    assert rows.size > 50  # the box is in view
-    return float(rows.mean())
+    assert rows.size > 50  # the boxes are in view
+    return rows
+
+
+def _family_frames(tmp_path, family: str, seconds: float, fps: int) -> list:
+    """Family ``family``'s video on xpbd through ``mjcable render``, read back: its frames, (HEIGHT, WIDTH, 3)."""
+    path = tmp_path / f"{family}.mp4"
+    assert cli.main(["render", "--family", family, "--model", "xpbd", "-o", str(path), "--seconds", str(seconds),
+                     "--fps", str(fps), "--width", str(WIDTH), "--height", str(HEIGHT)]) == cli.EXIT_OK
+    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")
+    next(reader)
+    frames = [np.frombuffer(frame, np.uint8).reshape(HEIGHT, WIDTH, 3) for frame in reader]
+    reader.close()
+    assert len(frames) == round(seconds * fps)
+    return frames
 
 
 @pytest.mark.slow
 def test_the_winch_video_shows_the_box_rising_as_fast_as_the_winch_reels(tmp_path):
     """The fixed side camera at distance d with a 45° field of view: the box rises 0.1 m/s × t, which is
     H · 0.1 t / (2 d tan 22.5°) pixels (a pinhole camera, the box in the plane through the rope)."""
-    path = tmp_path / "winch.mp4"
-    seconds, fps = 2.0, 5
-    assert cli.main(["render", "--family", "winch", "--model", "xpbd", "-o", str(path), "--seconds", str(seconds),
-                     "--fps", str(fps), "--width", str(WIDTH), "--height", str(HEIGHT)]) == cli.EXIT_OK
-    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")
-    next(reader)
-    rows = np.array([_box_row(np.frombuffer(frame, np.uint8).reshape(HEIGHT, WIDTH, 3)) for frame in reader])
-    reader.close()
-    assert len(rows) == round(seconds * fps)
+    fps = 5
+    rows = np.array([_orange_rows(frame).mean() for frame in _family_frames(tmp_path, "winch", 2.0, fps)])
     times = np.arange(len(rows)) / fps
     scale = HEIGHT / (2.0 * videos.WINCH_CAMERA_DISTANCE * math.tan(math.radians(22.5)))  # pixels per metre
     risen = rows[0] - rows  # image rows grow downwards
     np.testing.assert_allclose(risen, scale * winch.SPEED * times, rtol=0.0, atol=2.0)  # 2 px: about 1 cm
-
-
-def _orange_rows(image: np.ndarray) -> np.ndarray:
-    """The image rows that hold a box's orange pixels (:func:`_box_row`'s colour rule)."""
-    rgb = image.astype(np.int32)
-    rows, _ = np.nonzero((rgb[..., 0] - rgb[..., 2] > 30) & (rgb[..., 1] > 70) & (rgb[..., 2] < 200))
-    assert rows.size > 50  # the boxes are in view
-    return rows
 
 
 @pytest.mark.slow
@@ -95,15 +93,8 @@ def test_the_ring_video_shows_the_boxes_moving_as_the_atwood_machine_through_the
     """The fixed side camera: the heavy box's bottom (the lowest orange row) falls and the light box's top (the
     highest) rises by the heavy-rope Atwood machine's drop (:func:`mjcable.bench.pulley.heavy_rope_drop`, no
     pulley), H · x / (2 d tan 22.5°) pixels."""
-    path = tmp_path / "ring.mp4"
-    seconds, fps = 0.5, 10
-    assert cli.main(["render", "--family", "ring", "--model", "xpbd", "-o", str(path), "--seconds", str(seconds),
-                     "--fps", str(fps), "--width", str(WIDTH), "--height", str(HEIGHT)]) == cli.EXIT_OK
-    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")
-    next(reader)
-    rows = [_orange_rows(np.frombuffer(frame, np.uint8).reshape(HEIGHT, WIDTH, 3)) for frame in reader]
-    reader.close()
-    assert len(rows) == round(seconds * fps)
+    fps = 10
+    rows = [_orange_rows(frame) for frame in _family_frames(tmp_path, "ring", 0.5, fps)]
     scale = HEIGHT / (2.0 * videos.RING_CAMERA_DISTANCE * math.tan(math.radians(22.5)))  # pixels per metre
     expected = scale * pulley.heavy_rope_drop(np.arange(len(rows)) / fps, videos.ring_scene())
     assert expected[-1] > 30.0
