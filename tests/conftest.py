@@ -27,12 +27,15 @@ def catenary():
 
 # The quick suite (the README's test command, under 5 minutes from a clean clone on 2 cores) runs the tests
 # parametrized over models on one model of each kind (xpbd, cosserat, joints, flexrod); their cases on these models run
-# with the slow tests (`-m slow`, which CI runs too).
+# with the slow tests (`-m slow`, which CI runs too). MJCABLE_QUICK_ALL_MODELS=1 keeps every model's cases quick (CI's
+# MuJoCo-4 job, which runs no slow tests).
 SLOW_MODELS = frozenset({"springs", "composite", "jakobsen", "pbd"})
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest's -m selection reads the marks
 def pytest_collection_modifyitems(config, items):
+    if os.environ.get("MJCABLE_QUICK_ALL_MODELS"):
+        return
     for item in items:
         spec = getattr(item, "callspec", None)
         models = [v for v in spec.params.values() if isinstance(v, str)] if spec is not None else []
