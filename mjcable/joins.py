@@ -230,3 +230,28 @@ def check_winches(scene) -> None:
         if i in spooled:
             raise ValueError(f"{what} holds particle {i}, which starts on the spool of winch pins[{spooled[i]}]; "
                              f"hold a particle of the free cable, or move the winch's index")
+
+
+def free_gripper(scene, g) -> int:
+    """``g`` checked as the number of a free gripper of ``scene`` (a :class:`mjcable.scene.Scene`)."""
+    if not scene.grippers:
+        raise ValueError("g: the scene has no free grippers; give Scene(..., grippers=(mjcable.Gripper(position),))")
+    return _validate.integer("g", g, low=0, high=len(scene.grippers) - 1)
+
+
+def grasp_target(n_particles: int, held: dict, index, positions, gripper) -> int:
+    """The particle a free gripper closes on: ``index`` (global, negative from the end) checked in range and free, or
+    for ``index=None`` the free particle nearest to ``gripper`` (3,) m among ``positions`` (n_particles, 3) m.
+    ``held`` maps each held particle to what holds it (for the message).
+
+    Raises:
+      ValueError: ``index`` out of range or held, or (``None``) every particle held."""
+    if index is None:
+        free = np.setdiff1d(np.arange(n_particles), list(held))
+        if not len(free):
+            raise ValueError("index=None: every particle is held already; release one first")
+        return int(free[np.argmin(np.linalg.norm(np.asarray(positions)[free] - gripper, axis=1))])
+    index = _validate.integer("index", index, low=-n_particles, high=n_particles - 1) % n_particles
+    if index in held:
+        raise ValueError(f"index: particle {index} is held by {held[index]} already; grasp another particle")
+    return index

@@ -59,6 +59,7 @@ from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import convergence
 from mjcable.solvers.convergence import HANGING_SLOPE, STRAIN_WARNING, resolve_iterations
 from mjcable.solvers.settings import MAX_AUTO_ITERATIONS
+from mjcable.worlds import pulley
 
 __all__ = ["check", "resolve_iterations", "STRAIN_WARNING", "STIFFNESS_TOLERANCE", "MAX_SUBSTEP_FACTOR",
            "HANGING_SLOPE"]
@@ -266,10 +267,10 @@ def _rod_iterations(scene: Scene, entry: catalog.ModelEntry, settings, dt: float
 
 
 def _several_sweeps(scene: Scene, entry: catalog.ModelEntry, settings) -> None:
-    order = getattr(settings, "order", "direct")
-    if order == "direct":
+    """Several cables on a particle solver's Gauss-Seidel or Jacobi order: no strain estimate (module docstring)."""
+    if settings.order == "direct":
         return
-    _warn(f"{entry.name}: with order={order!r} and {len(scene.cables)} cables, no estimate of the iterations' "
+    _warn(f"{entry.name}: with order={settings.order!r} and {len(scene.cables)} cables, no estimate of the iterations' "
           f"static strain is made (one cable's alone would leave out what the cables hang on each other through their "
           f"contacts and junctions): a cable pinned taut under another sags and swings (measured: a rope over a "
           f"taut cable at 0.85 of the capstan law creeps at 4 mm/s with pbd and jakobsen at their defaults, where it "
@@ -277,8 +278,7 @@ def _several_sweeps(scene: Scene, entry: catalog.ModelEntry, settings) -> None:
 
 
 def _spinless_pulleys(scene: Scene, entry: catalog.ModelEntry) -> None:
-    from mjcable.worlds import pulley  # a world's pulleys only here
-
+    """``flexrod`` with pulleys of :func:`mjcable.worlds.pulley.add_pulley` in the world (module docstring)."""
     radius = max(c.radius for c in scene.cables)
     for body, rim in pulley.pulleys(scene.world.model).items():
         _warn(f"{entry.name}: its flex vertices carry no spin, so pulley {body!r} (rim radius {rim:g} m) turns faster "

@@ -18,11 +18,10 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from mjcable import _validate, catalog, monitor, prechecks
+from mjcable import _validate, catalog, joins, monitor, prechecks, winch_control
 from mjcable.backends.protocol import MAX_DISTANCE, MAX_SPEED, Backend
 from mjcable.errors import SimulationDivergedError
 from mjcable.scene import Scene
-from mjcable.winch_control import WinchControl
 
 __all__ = ["Simulator", "Trajectory", "MAX_SPEED", "MAX_DISTANCE", "MAX_STEPS", "MAX_ROLLOUT_BYTES"]
 
@@ -69,7 +68,7 @@ class Trajectory:
         return len(self.times)
 
 
-class Simulator(WinchControl):
+class Simulator:
     """Simulate a scene with one cable model.
 
     Args:
@@ -530,6 +529,20 @@ class Simulator(WinchControl):
         mass = _validate.number("mass", mass, low=0.0, low_open=True, unit="kg")
         self._backend.add_point_mass(index, mass)
 
+    # -- winches --------------------------------------------------------------------------------------------------
+
+    def reel(self, k: int, speed: float) -> None:
+        """Reel winch ``scene.pins[k]`` at ``speed`` m/s from the next step on, until changed: positive pays out,
+        negative reels in, 0 stops. The free length changes by ``speed`` per second with the mass per metre kept,
+        until the spool is empty or one segment is left free; the pull is :attr:`pin_forces` ``[k]`` (README,
+        *Winches*). Raises ``ValueError``: ``k`` not a winch pin's index, ``speed`` not a finite number."""
+        self._backend.reel(winch_control.winch_pin(self.scene, k), _validate.number("speed", speed, unit="m/s"))
+
+    def free_length(self, k: int) -> float:
+        """m: the cable winch ``scene.pins[k]`` has paid out, from the winch point to the cable's free end along its
+        segments' rest lengths. Raises ``ValueError``: ``k`` not a winch pin's index."""
+        return self._backend.free_length(winch_control.winch_pin(self.scene, k))
+
     # -- free grippers --------------------------------------------------------------------------------------------
 
     def grasp(self, g: int, index: Optional[int] = None) -> int:
@@ -553,21 +566,11 @@ class Simulator(WinchControl):
         Example::
 
             sim.grasp(0)   # the particle nearest to free gripper 0, moved as move_gripper(len(sim.scene.pins), ...)"""
-        g = self._free_gripper(g)
+        g = joins.free_gripper(self.scene, g)
         if self._grasped[g] is not None:
             raise ValueError(f"g: free gripper {g} already holds particle {self._grasped[g]}; release it first")
-        held = self._held()
-        n = self.scene.n_particles
-        if index is None:
-            free = np.setdiff1d(np.arange(n), list(held))
-            if not len(free):
-                raise ValueError("index=None: every particle is held already; release one first")
-            gripper = self.gripper_positions[len(self.scene.gripper_pins) + g]
-            index = int(free[np.argmin(np.linalg.norm(self._positions[free] - gripper, axis=1))])
-        else:
-            index = _validate.integer("index", index, low=-n, high=n - 1) % n
-            if index in held:
-                raise ValueError(f"index: particle {index} is held by {held[index]} already; grasp another particle")
+        gripper = self.gripper_positions[len(self.scene.gripper_pins) + g]
+        index = joins.grasp_target(self.scene.n_particles, self._held(), index, self._positions, gripper)
         self._backend.grasp(g, index)
         self._grasped[g] = index
         return index
@@ -579,19 +582,13 @@ class Simulator(WinchControl):
 
         Raises:
           ValueError: ``g`` out of range, or the gripper open already."""
-        g = self._free_gripper(g)
+        g = joins.free_gripper(self.scene, g)
         index = self._grasped[g]
         if index is None:
             raise ValueError(f"g: free gripper {g} holds nothing (it is open); grasp before releasing")
         self._backend.release(g)
         self._grasped[g] = None
         return index
-
-    def _free_gripper(self, g) -> int:
-        """``g`` checked as a free gripper's number."""
-        if not self.scene.grippers:
-            raise ValueError("g: the scene has no free grippers; give Scene(..., grippers=(mjcable.Gripper(position),))")
-        return _validate.integer("g", g, low=0, high=len(self.scene.grippers) - 1)
 
     def _held(self) -> dict:
         """Particle -> what holds it: the scene's pins (but released sockets) and the closed free grippers."""

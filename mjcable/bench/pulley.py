@@ -51,6 +51,7 @@ __all__ = [
     "Record",
     "run_atwood",
     "record",
+    "sampled",
     "sample",
     "from_samples",
     "fit_parabola",
@@ -220,12 +221,18 @@ def run_atwood(model: str, *, dt: float = 0.002, scene: Optional[AtwoodScene] = 
 def record(sim: Simulator, duration: float) -> Record:
     """Run ``sim`` (an :func:`atwood_scene`) for ``duration`` s from where it is, sampling every
     :data:`SAMPLE_EVERY`."""
+    return from_samples(sampled(sim, duration, sample), sim.scene)
+
+
+def sampled(sim: Simulator, duration: float, sample_of) -> list:
+    """Run ``sim`` for ``duration`` s from where it is: the rows ``sample_of(sim)`` at the start and every
+    :data:`SAMPLE_EVERY` (whole steps)."""
     every = max(1, int(round(SAMPLE_EVERY / sim.dt)))
-    rows = [sample(sim)]
+    rows = [sample_of(sim)]
     for _ in range(int(round(duration / (every * sim.dt)))):
         sim.step(every * sim.dt)
-        rows.append(sample(sim))
-    return from_samples(rows, sim.scene)
+        rows.append(sample_of(sim))
+    return rows
 
 
 def sample(sim: Simulator) -> tuple:

@@ -47,7 +47,7 @@ BOX_HALF = 0.04  # m (cubes; the boxes touch nothing)
 SEGMENTS = 50
 DURATION = 0.5  # s
 WINDOW = (0.1, 0.5)  # s: the fit's window
-SAMPLE_EVERY = 0.005  # s
+SAMPLE_EVERY = pulley.SAMPLE_EVERY  # s between samples (pulley.sampled's)
 HEAVY_BODY, LIGHT_BODY = "heavy_box", "light_box"
 MU = 0.3  # the rim's friction of the threshold's runs (the issue's)
 HOLD_RATIO, SLIDE_RATIO = 0.85, 1.15  # m₁ / m₂ over e^{μπ}: below the capstan law's threshold, above it
@@ -128,12 +128,7 @@ def _sample(sim: Simulator) -> tuple:
 def record(sim: Simulator, duration: float) -> pulley.Record:
     """Run ``sim`` (an :func:`atwood_scene`) for ``duration`` s, sampling every :data:`SAMPLE_EVERY`: a
     :class:`pulley.Record` whose rim and rope speeds are NaN (no pulley)."""
-    every = max(1, int(round(SAMPLE_EVERY / sim.dt)))
-    rows = [_sample(sim)]
-    for _ in range(int(round(duration / (every * sim.dt)))):
-        sim.step(every * sim.dt)
-        rows.append(_sample(sim))
-    return _record(rows, sim.scene)
+    return _record(pulley.sampled(sim, duration, _sample), sim.scene)
 
 
 def _record(rows, scene) -> pulley.Record:

@@ -13,6 +13,19 @@ from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.kernels_layout import _TINY_LENGTH, BEND_CURVATURE, BEND_DISTANCE
 
 
+@_inline
+def push(x, react, wp, p, fx, fy, fz):
+    """Particle p moves by wp f; a held particle (wp = 0) also collects f in ``react`` (no else branch: measured
+    slower)."""
+    x[p, 0] += wp * fx
+    x[p, 1] += wp * fy
+    x[p, 2] += wp * fz
+    if wp == 0.0:
+        react[p, 0] += fx
+        react[p, 1] += fy
+        react[p, 2] += fz
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # Per-constraint projections: pure scalar functions.
 

@@ -26,24 +26,12 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.constraint_kernels import push as _push
 
 __all__ = ["rod_direct_limp", "block_ldlt_solve", "block_ldlt_factor", "block_ldlt_substitute"]
 
 # Relative compliance added to the diagonal of every row, as in the banded solve (cosserat_kernels._REGULARIZATION)
 _REGULARIZATION = 1e-10
-
-
-@_inline
-def _push(x, react, wp, p, fx, fy, fz):
-    """Particle p moves by wp f; a held particle (wp = 0) also collects f in ``react`` (no else branch: measured
-    slower)."""
-    x[p, 0] += wp * fx
-    x[p, 1] += wp * fy
-    x[p, 2] += wp * fz
-    if wp == 0.0:
-        react[p, 0] += fx
-        react[p, 1] += fy
-        react[p, 2] += fz
 
 
 @_jit

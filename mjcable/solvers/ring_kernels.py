@@ -62,27 +62,13 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.constraint_kernels import xpbd_multiplier
+from mjcable.solvers.constraint_kernels import push, xpbd_multiplier
 from mjcable.solvers.kernels_layout import _TINY_LENGTH, RING_LET_GO, RING_SLIDING, RING_STOPPED
 
 __all__ = ["ring_begin", "ring_sweep", "ring_end", "TURN_SEGMENTS"]
 
 TURN_SEGMENTS = 3  # segments either side of a ring over which its turn θ is measured (chords)
 _SLID = 1e-9  # relative: a multiplier this close to the friction bound reached it (the ring slid)
-
-
-@_jit
-def _move(x, w, react, p, gx, gy, gz, dlam):
-    """Particle ``p`` moved by w ∇C Δλ (∇C = (gx, gy, gz)), or, held (w = 0), ∇C Δλ added to its reaction."""
-    wp = w[p]
-    if wp > 0.0:
-        x[p, 0] += wp * gx * dlam
-        x[p, 1] += wp * gy * dlam
-        x[p, 2] += wp * gz * dlam
-    else:
-        react[p, 0] += gx * dlam
-        react[p, 1] += gy * dlam
-        react[p, 2] += gz * dlam
 
 
 @_jit
@@ -139,9 +125,9 @@ def _slide(S, r, alpha_tilde, k):
     if wi > 0.0 and la > 0.0 and la + wi * dlam < 0.0:  # x_i does, first
         dlam, step = -la / wi, -1
     lam_s[i] += dlam
-    _move(x, w, react, i, ax, ay, az, dlam)
-    _move(x, w, react, j, bx, by, bz, dlam)
-    _move(x, w, react, c, -nx, -ny, -nz, dlam)
+    push(x, react, w[i], i, ax * dlam, ay * dlam, az * dlam)
+    push(x, react, w[j], j, bx * dlam, by * dlam, bz * dlam)
+    push(x, react, w[c], c, -nx * dlam, -ny * dlam, -nz * dlam)
     norm = math.sqrt(nx * nx + ny * ny + nz * nz)
     if norm > _TINY_LENGTH:
         S.ring_dir[r, 0], S.ring_dir[r, 1], S.ring_dir[r, 2] = nx / norm, ny / norm, nz / norm
@@ -167,9 +153,9 @@ def _slide(S, r, alpha_tilde, k):
     if wj > 0.0 and lb - wj * dlam < 0.0:
         dlam = lb / wj
     lam[r] += dlam
-    _move(x, w, react, i, ax, ay, az, dlam)
-    _move(x, w, react, j, -bx, -by, -bz, dlam)
-    _move(x, w, react, c, -dx, -dy, -dz, dlam)
+    push(x, react, w[i], i, ax * dlam, ay * dlam, az * dlam)
+    push(x, react, w[j], j, -bx * dlam, -by * dlam, -bz * dlam)
+    push(x, react, w[c], c, -dx * dlam, -dy * dlam, -dz * dlam)
 
 
 @_jit
