@@ -51,6 +51,7 @@ import math
 import warnings
 from typing import Optional
 
+import mujoco
 import numpy as np
 
 from mjcable import _validate, catalog
@@ -102,6 +103,8 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
         _spinless_pulleys(scene, entry)
     if entry.family == "particle":
         _rings(scene, entry, settings, dt)
+    elif scene.rings and scene.world is not None:
+        _pyramidal_rings(scene, entry)
 
 
 def _warn(message: str) -> None:
@@ -275,6 +278,15 @@ def _several_sweeps(scene: Scene, entry: catalog.ModelEntry, settings) -> None:
           f"contacts and junctions): a cable pinned taut under another sags and swings (measured: a rope over a "
           f"taut cable at 0.85 of the capstan law creeps at 4 mm/s with pbd and jakobsen at their defaults, where it "
           f"holds with the direct order); use order='direct'")
+
+
+def _pyramidal_rings(scene: Scene, entry: catalog.ModelEntry) -> None:
+    """A native model's rings with rim friction in a user world on MuJoCo's pyramidal friction cone."""
+    if scene.world.model.opt.cone != mujoco.mjtCone.mjCONE_PYRAMIDAL or not any(r.friction for r in scene.rings):
+        return
+    _warn(f"{entry.name}: the world's friction cone is pyramidal, on which a ring's rim friction creeps (measured: "
+          f"boxes held at 0.85 of the capstan law through a ring with μ = 0.3 move at 0.11-0.18 m/s); set the world's "
+          f"<option cone=\"elliptic\" impratio=\"10\"/> (spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC)")
 
 
 def _spinless_pulleys(scene: Scene, entry: catalog.ModelEntry) -> None:
