@@ -220,7 +220,7 @@ def test_the_block_solve_of_the_geometric_stiffness_is_the_dense_solve_of_its_ro
     sim = mjcable.Simulator(scene, "xpbd")
     h = sim.dt / sim.settings.substeps
     rules = catalog.get("xpbd").rules(scene, sim.settings, h)
-    arrays = state.chain_arrays(scene, rules, sim.settings, sim.dt)
+    arrays = state.chain_arrays(scene, (rules,), sim.settings, sim.dt)
     assert arrays.par[0]["gs_chain"]
     rng = np.random.default_rng(7)
     l0 = cable.segment_length
@@ -230,11 +230,11 @@ def test_the_block_solve_of_the_geometric_stiffness_is_the_dense_solve_of_its_ro
     tension[20] = 1e-12  # near zero: its transverse rows are negligible
     arrays.lam_gs[:] = -tension * h * h
     arrays.lam_s[:] = 0.5 * arrays.lam_gs
-    alpha_t = arrays.par[0]["alpha_s"] / h**2
+    alpha_t = arrays.cable_par[0]["alpha_s"] / h**2
     expected = _dense_geometric_solve(arrays.x, arrays.w, arrays.rest, arrays.lam_s, arrays.lam_gs, alpha_t,
                                       direct_kernels._DIRECT_RESIDUAL_FLOOR)
     start = arrays.x.copy()
-    direct_kernels._chain_geometric_solve(kernels_layout.assemble(arrays), alpha_t)
+    direct_kernels._chain_geometric_solve(kernels_layout.assemble(arrays))
     moved = expected[0] - start
     assert np.max(np.abs(moved)) > 0.1 * jitter * l0  # the solve has work to do
     np.testing.assert_allclose(arrays.x - start, moved, rtol=0.0, atol=1e-9 * np.max(np.abs(moved)))

@@ -196,9 +196,9 @@ def _slide_block(mu: float, tilt: float, *, self_contact: bool, substeps: int = 
         fric_unit=np.zeros((4, 3)), fric_push=np.zeros((4, 3)), fric_cone=np.zeros(4),
         fric_sole=np.zeros(4, dtype=np.bool_),
         anchor=np.zeros((4, 3)), anchor_ob=np.full(4, -1, dtype=np.int64),
-        seg_cable=np.zeros(3, dtype=np.int64), cable_mu=np.array([mu]))
+        seg_cable=np.zeros(3, dtype=np.int64), cable_mu=np.array([mu]), seg_radius=np.full(3, r))
     par = a["par"][0]
-    par["radius"], par["n_con"], par["n_self"], par["h"] = r, 1, 1, h
+    par["n_con"], par["n_self"], par["h"] = 1, 1, h
     x, x0 = a["x"], a["x0"]
     centre = []
     for _ in range(steps):
@@ -247,9 +247,9 @@ def test_a_chord_on_a_peg_is_held_at_its_closest_point_whatever_fraction_the_que
         fric_n=np.zeros(2), fric_mu=np.zeros(2), fric_slid=np.zeros(2, dtype=np.bool_), fric_nsum=np.zeros((2, 3)),
         fric_impulse=np.zeros((2, 3)), fric_normal=np.zeros((2, 3)), fric_ob=np.zeros(2, dtype=np.int64),
         fric_unit=np.zeros((2, 3)), fric_push=np.zeros((2, 3)), fric_cone=np.zeros(2),
-        anchor=np.zeros((2, 3)), anchor_ob=np.full(2, -1, dtype=np.int64))
+        anchor=np.zeros((2, 3)), anchor_ob=np.full(2, -1, dtype=np.int64), seg_radius=np.full(1, RADIUS))
     par = a["par"][0]
-    par["radius"], par["n_con"], par["h"] = RADIUS, 1, 0.0005
+    par["n_con"], par["h"] = 1, 0.0005
     a["x0"][:, 2] += 0.001  # the substep started above the peg: no old depth to push out slowly
     contact_kernels.contact_sweep(S)
     s = np.linspace(0.0, 1.0, 201)[:, None]
@@ -274,9 +274,9 @@ def test_a_self_contact_is_held_at_the_pairs_closest_points_not_the_querys(side)
     S, a = _state(x=x, x0=x.copy(), w=np.ones(4), react=np.zeros_like(x),
                   self_pair=np.array([[2, 0]], dtype=np.int64), self_st=np.array([[0.5, 0.5]]),
                   self_normal=np.array([[0.0, 0.0, 1.0]]), self_lam_n=np.zeros(1), self_lam_t=np.zeros(1),
-                  seg_cable=np.zeros(3, dtype=np.int64), cable_mu=np.zeros(1))
+                  seg_cable=np.zeros(3, dtype=np.int64), cable_mu=np.zeros(1), seg_radius=np.full(3, r))
     par = a["par"][0]
-    par["radius"], par["n_self"], par["h"] = r, 1, 0.0005
+    par["n_self"], par["h"] = 1, 0.0005
     for _ in range(2):  # two iterations' sweeps
         cable_contact_kernels.self_contact_sweep(S)
         a["self_lam_n"][:] = a["self_lam_t"][:] = 0.0

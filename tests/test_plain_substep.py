@@ -29,7 +29,7 @@ def _chain(scene, model: str, settings: dict, contacts: int = 0):
     """The solver state of ``scene`` (no MuJoCo parts) and its arrays; ``contacts`` obstacle contacts in it."""
     sim = mjcable.Simulator(scene, model, **settings)
     rules = catalog.get(model).rules(scene, sim.settings, sim.dt / sim.settings.substeps)
-    arrays = state.chain_arrays(scene, rules, sim.settings, sim.dt)
+    arrays = state.chain_arrays(scene, (rules,), sim.settings, sim.dt)
     arrays.par[0]["n_con"] = contacts
     return kernels_layout.assemble(arrays), arrays, sim.settings
 

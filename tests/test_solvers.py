@@ -216,7 +216,7 @@ def test_self_collision_keeps_segments_apart():
         x = sim.positions
         pair, st, normal = np.zeros((4000, 2), dtype=np.int64), np.zeros((4000, 2)), np.zeros((4000, 3))
         one_chain = (np.array([[0, len(x) - 1]]), True, np.zeros((0, 2), dtype=np.int64))  # chains, own, junctions
-        count = cable_contact_kernels.find_self_contacts(x, 0.05, 2, pair, st, normal, *one_chain)
+        count = cable_contact_kernels.find_self_contacts(x, 0.05, np.array([2]), pair, st, normal, *one_chain)
         a = (1 - st[:count, :1]) * x[pair[:count, 0]] + st[:count, :1] * x[pair[:count, 0] + 1]
         b = (1 - st[:count, 1:2]) * x[pair[:count, 1]] + st[:count, 1:2] * x[pair[:count, 1] + 1]
         gaps[on] = np.min(np.linalg.norm(a - b, axis=1))

@@ -34,7 +34,7 @@ from mjcable.solvers.contacts import ObstacleContacts
 from mjcable.solvers.energy import elastic_energy, rod_energy
 from mjcable.solvers.settings import ParticleSettings
 from mjcable.solvers import winches
-from mjcable.solvers.state import StateArrays, chain_arrays, quat_mul
+from mjcable.solvers.state import StateArrays, cable_rules, chain_arrays, quat_mul
 from mjcable.solvers.user_constraints import iteration_factor
 
 __all__ = ["ParticleBackend", "proxy_builder"]
@@ -79,7 +79,7 @@ class ParticleBackend:
         self.settings = s = convergence.resolve_iterations(scene, entry, settings, dt)  # iterations=None
         self.scene, self.name, self.dt = scene, entry.name, dt
         self.h = dt / s.substeps
-        self.rules = entry.rules(scene, s, self.h)
+        self.rules = cable_rules(entry.rules, scene, s, self.h)
         n_particles = scene.n_particles
         self._user = [(c, c.resolved(n_particles)) for c in getattr(s, "constraints", ())]
         a = self.arrays = chain_arrays(scene, self.rules, s, dt)
@@ -438,8 +438,8 @@ class ParticleBackend:
         frame, −Σ R ∇_b Cᵀ λ / h² (:mod:`mjcable.solvers.cosserat_kernels`), axial torque included."""
         a = self.arrays
         out = np.zeros((len(self.scene.pins), 3))
-        scale = 2.0 * float(self._par["inv_l0sq"])
         for kc, (p, q) in enumerate(a.clamp_pq):
+            scale = 2.0 * float(a.cable_par[a.seg_cable[min(p, q)]]["inv_l0sq"])
             k = int(a.clamp_pin[kc])
             if not a.pin_active[k]:
                 continue

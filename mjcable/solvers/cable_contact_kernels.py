@@ -12,7 +12,7 @@ than that never touch (they would push the junction apart). The gap segments bet
 
 **Projection.** A pair's contact, found once per step and renewed at the pair's closest points before every sweep
 (:func:`_remeasure`), with the unit normal n from segment j to segment i, is
-C = n·(pᵢ − pⱼ) − 2r ≥ 0 with the four particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of
+C = n·(pᵢ − pⱼ) − (rᵢ + rⱼ) ≥ 0 (each segment's cable's radius) with the four particles moving with Jakobsen's segment weights ([J01]; the pairwise scheme of
 the thesis, §4.2): a speculative contact, so that a segment found within the step's travel cannot pass through the
 other within the step. One pass over the pairs leaves depth where many of them compete (a cable whipping round
 another): a sweep whose projections removed more than ``par.impact_speed`` · h (a strike, not a resting contact's
@@ -46,7 +46,6 @@ from mjcable.solvers.kernels_layout import _TINY_LENGTH, _TINY_SLIP, ANCHOR_COLU
 __all__ = ["segment_closest", "find_self_contacts", "self_contacts", "self_contact_sweep"]
 
 _PARALLEL = 1e-12  # relative sin² below which two segments count as parallel
-_ROUND_OFF = 1e-9  # relative: a radius equal to half a segment up to this does not overlap its neighbours
 # m: the tangential offset a capped friction correction of two cables' contact may leave before its anchor moves
 # (_anchored_friction): a substep's normal load scatters between a wrap's contacts, and one capped for a substep need
 # not slide (docs/measurements.md, 2026-11-27)
@@ -101,11 +100,11 @@ def _joined(i, j, ci, cj, chains, joined_p, first):
 
 
 @_nogil
-def find_self_contacts(x, reach, first, pair, st, normal, chains, own, joined_p):
-    """Pairs of segments whose axes are closer than ``reach`` metres: of one chain (with ``own``) at least ``first``
-    (>= 2) apart (j − i ≥ first), of different chains any (``chains`` (C, 2): each cable's segments [first, stop)),
-    none closer than ``first`` through a junction (``joined_p`` (M, 2): the pairs of particles that junctions make
-    one point); each pair once, i < j. Fills ``pair``
+def find_self_contacts(x, reach, near, pair, st, normal, chains, own, joined_p):
+    """Pairs of segments whose axes are closer than ``reach`` metres: of one chain c (with ``own``) at least
+    ``near[c]`` (>= 2) apart (j − i ≥ near[c]), of different chains any (``chains`` (C, 2): each cable's segments
+    [first, stop)), none closer through a junction than the larger of the two chains' ``near`` (``joined_p`` (M, 2):
+    the pairs of particles that junctions make one point); each pair once, i < j. Fills ``pair``
     (cap, 2), the fractions (s, t) of their closest points into ``st`` (cap, 2) and the unit normal from segment j to
     segment i into ``normal`` (cap, 3).
     Returns the number found, or −1 if more than ``cap`` (the caller grows the buffers and asks again)."""
@@ -134,12 +133,12 @@ def find_self_contacts(x, reach, first, pair, st, normal, chains, own, joined_p)
                         or box[cj, 1] > hi[i, 1] + reach or lo[i, 2] > box[cj, 5] + reach
                         or box[cj, 2] > hi[i, 2] + reach):
                     continue
-                for j in range(i + first if cj == ci else chains[cj, 0], chains[cj, 1]):
+                for j in range(i + near[ci] if cj == ci else chains[cj, 0], chains[cj, 1]):
                     if (lo[i, 0] > hi[j, 0] + reach or lo[j, 0] > hi[i, 0] + reach or lo[i, 1] > hi[j, 1] + reach
                             or lo[j, 1] > hi[i, 1] + reach or lo[i, 2] > hi[j, 2] + reach
                             or lo[j, 2] > hi[i, 2] + reach):
                         continue
-                    if joined_p.shape[0] and _joined(i, j, ci, cj, chains, joined_p, first):
+                    if joined_p.shape[0] and _joined(i, j, ci, cj, chains, joined_p, max(near[ci], near[cj])):
                         continue
                     count = _take_pair(x, reach, i, j, pair, st, normal, count)
                     if count < 0:
@@ -194,14 +193,15 @@ def self_contacts(S, reach):
     ``S.self_normal`` (the buffers, grown together until they hold them all); returns their number. Segments whose
     capsules overlap at rest never touch: those closer along a cable (or through a junction) than the cable's
     diameter, (j − i − 1) l₀ < 2 r (:meth:`mjcable.scene.CableSpec.overlapping_neighbours`), which would push each
-    other apart and stretch the cable."""
+    other apart and stretch the cable (each cable's ``near`` in ``cable_par``)."""
     P = S.par[0]
-    first = int(math.ceil(2.0 * P.radius / abs(S.rest[S.chain_seg[0, 0]]) * (1.0 - _ROUND_OFF))) + 1
-    first = max(first, 2)
+    near = np.empty(S.cable_par.shape[0], dtype=np.int64)
+    for c in range(near.shape[0]):
+        near[c] = S.cable_par[c].near
     args = (S.chain_seg, P.self_collision, S.joined_p)
     held = min(P.n_self, S.self_pair.shape[0]) if P.cable_contact else 0  # the last step's pairs, for their anchors
     last = (S.self_pair[:held].copy(), S.self_anchor[:held].copy(), S.self_lam_n[:held].copy())
-    count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal, *args)
+    count = find_self_contacts(S.x, reach, near, S.self_pair, S.self_st, S.self_normal, *args)
     while count < 0:
         cap = max(2 * S.self_pair.shape[0], 1)
         S.self_pair = np.zeros((cap, 2), dtype=np.int64)
@@ -210,7 +210,7 @@ def self_contacts(S, reach):
         S.self_lam_n = np.zeros(cap)
         S.self_lam_t = np.zeros(cap)
         S.self_anchor = np.zeros((cap, ANCHOR_COLUMNS))
-        count = find_self_contacts(S.x, reach, first, S.self_pair, S.self_st, S.self_normal, *args)
+        count = find_self_contacts(S.x, reach, near, S.self_pair, S.self_st, S.self_normal, *args)
     if P.cable_contact:
         _keep_anchors(S, count, last)
     return count
@@ -276,7 +276,7 @@ def self_contact_sweep(S):
     """The state's segment contacts (``par.n_self`` of them: a cable's own and those between cables) of segments
     (i, i+1) and (j, j+1) (``self_pair``) at fractions s, t (``self_st``) and the unit normal n from segment j to
     segment i (``self_normal``), found once per step and renewed before each projection (:func:`_remeasure`):
-    C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = 2 · radius, the four particles moving with Jakobsen's segment weights ([J01];
+    C = n·(pᵢ − pⱼ) − gap ≥ 0, gap = rᵢ + rⱼ (the segments' cables' radii, ``seg_radius``), the four particles moving with Jakobsen's segment weights ([J01];
     the pairwise scheme of the thesis, §4.2). Coulomb friction μ (the larger of the two cables', ``cable_mu``):
     between two cables against the pair's anchor (:func:`_anchored_friction`) in a cone of the normal load pooled
     over the contacts on its particles in the last sweep (:func:`_pooled_load`; renewed when this sweep ends,
@@ -284,7 +284,6 @@ def self_contact_sweep(S):
     the substep began ([M20]'s static friction, capped at μ λₙ: kinetic beyond), each right after the pair's normal.
     Multipliers ``self_lam_n``, ``self_lam_t``."""
     P = S.par[0]
-    gap = 2.0 * P.radius
     x, x0, w, react, seg_cable, cable_mu = S.x, S.x0, S.w, S.react, S.seg_cable, S.cable_mu
     pair, st, normal, lam_n, lam_t = S.self_pair, S.self_st, S.self_normal, S.self_lam_n, S.self_lam_t
     deepest = 0.0  # the most depth one projection removed
@@ -292,7 +291,7 @@ def self_contact_sweep(S):
         i = pair[c, 0]
         j = pair[c, 1]
         mu = max(cable_mu[seg_cable[i]], cable_mu[seg_cable[j]])
-        wsum, removed = _project_normal(S, c, gap)
+        wsum, removed = _project_normal(S, c)
         deepest = max(deepest, removed)
         if wsum == 0.0 or mu <= 0.0 or lam_n[c] <= 0.0:
             continue
@@ -326,15 +325,15 @@ def self_contact_sweep(S):
         for _ in range(P.impact_iterations):
             removed = 0.0
             for c in range(P.n_self):
-                removed = max(removed, _project_normal(S, c, gap)[1])
+                removed = max(removed, _project_normal(S, c)[1])
             if removed <= P.impact_tol:
                 break
 
 
 @_inline
-def _project_normal(S, c, gap):
+def _project_normal(S, c):
     """Contact ``c``'s normal projection at the pair's closest points now (:func:`_remeasure`), C = n·(pᵢ − pⱼ) − gap
-    ≥ 0, adding to ``self_lam_n[c]``. Returns (Σ w ∇C², 0 where both segments are held and nothing is done; the
+    ≥ 0, gap = rᵢ + rⱼ, adding to ``self_lam_n[c]``. Returns (Σ w ∇C², 0 where both segments are held and nothing is done; the
     depth it removed, m)."""
     x, w, react, pair, st, normal = S.x, S.w, S.react, S.self_pair, S.self_st, S.self_normal
     i, j = pair[c, 0], pair[c, 1]
@@ -345,7 +344,7 @@ def _project_normal(S, c, gap):
     wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
     if wsum == 0.0:
         return 0.0, 0.0
-    cval = -gap
+    cval = -(S.seg_radius[i] + S.seg_radius[j])
     cval += nx * (a0 * x[i, 0] + a1 * x[i + 1, 0] + b0 * x[j, 0] + b1 * x[j + 1, 0])
     cval += ny * (a0 * x[i, 1] + a1 * x[i + 1, 1] + b0 * x[j, 1] + b1 * x[j + 1, 1])
     cval += nz * (a0 * x[i, 2] + a1 * x[i + 1, 2] + b0 * x[j, 2] + b1 * x[j + 1, 2])
@@ -424,7 +423,7 @@ def _anchored_friction(S, c, budget, nx, ny, nz):
         return
     i, j = pair[c, 0], pair[c, 1]
     sa, ta = anchor[c, 0], anchor[c, 1]
-    gap = 2.0 * S.par[0].radius
+    gap = S.seg_radius[i] + S.seg_radius[j]
     a0, a1, b0, b1 = 1.0 - sa, sa, -(1.0 - ta), -ta
     wsum = a0 * a0 * w[i] + a1 * a1 * w[i + 1] + b0 * b0 * w[j] + b1 * b1 * w[j + 1]
     if wsum == 0.0:

@@ -44,7 +44,7 @@ def _perpendicular(nx, ny, nz, k):
 
 
 @_jit
-def _chain_geometric_solve(S, alpha_s_t):
+def _chain_geometric_solve(S):
     """:func:`_direct_once_geometric` for a chain whose rows are its stretch rows only, solved block by block: the
     same linear system, O(n) with a small constant. Returns ρ before the solve.
 
@@ -73,6 +73,7 @@ def _chain_geometric_solve(S, alpha_s_t):
             e00 = e11 = e22 = e01 = e02 = e12 = y0 = y1 = y2 = 0.0
             blk[i, :] = 0.0
             continue
+        alpha_s_t = S.cable_par[S.seg_cable[i]].at_s  # (its cable's)
         dx, dy, dz = x[i, 0] - x[i + 1, 0], x[i, 1] - x[i + 1, 1], x[i, 2] - x[i + 1, 2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         lam = lam_s[i]
@@ -116,7 +117,7 @@ def _chain_geometric_solve(S, alpha_s_t):
         blk[i, 3], blk[i, 4], blk[i, 5], blk[i, 6], blk[i, 7], blk[i, 8] = e00, e11, e22, e01, e02, e12
         blk[i, 9], blk[i, 10], blk[i, 11] = y0, y1, y2
     _chain_back_substitute(S)
-    if _chain_chord_forward(S, alpha_s_t) <= _DIRECT_RESIDUAL_FLOOR:  # a chord step (see _chord_rhs)
+    if _chain_chord_forward(S) <= _DIRECT_RESIDUAL_FLOOR:  # a chord step (see _chord_rhs)
         _chain_back_substitute(S)
     return rho
 
@@ -158,7 +159,7 @@ def _chain_back_substitute(S):
 
 
 @_inline
-def _chain_chord_forward(S, alpha_s_t):
+def _chain_chord_forward(S):
     """The forward pass of a chord step of :func:`_chain_geometric_solve`: :func:`_chord_rhs`'s right-hand side
     (−C − α̃ λ of the stretch rows at the new x, 0 between held particles) along the factors' directions, forward
     substituted into ``gs_blocks``. Returns its ρ = max |C + α̃ λ| / rest."""
@@ -170,7 +171,7 @@ def _chain_chord_forward(S, alpha_s_t):
         wi = w[i]
         if S.seg_cable[i] >= 0 and (wi != 0.0 or w[i + 1] != 0.0):
             dx, dy, dz = x[i, 0] - x[i + 1, 0], x[i, 1] - x[i + 1, 1], x[i, 2] - x[i + 1, 2]
-            r = -(math.sqrt(dx * dx + dy * dy + dz * dz) - rest[i]) - alpha_s_t * lam_s[i]
+            r = -(math.sqrt(dx * dx + dy * dy + dz * dz) - rest[i]) - S.cable_par[S.seg_cable[i]].at_s * lam_s[i]
             rho = max(rho, abs(r) / rest[i])
         if i > 0:
             e00, e11, e22, e01, e02, e12 = blk[i - 1, 3], blk[i - 1, 4], blk[i - 1, 5], blk[i - 1, 6], \

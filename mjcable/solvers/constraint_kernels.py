@@ -134,15 +134,20 @@ def share(relax, i, j, k):
 
 
 @_inline
-def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx, relax, chains):
+def stretch_sweep(x, out, w, react, rest, gap, cables, lam, sqrt_approx, relax, chains):
     """Stretch constraints c between particles c and c + ``gap`` within each chain (gap 1: the segments; gap 2: the
     thesis's next-neighbour bending stick of rest length 2 l₀, [T20] §3.4.1 Fig. 3.23): ``chains`` (C, 2) holds
     each cable's segments [first, stop), so c runs from first to stop − gap (the gap segments between cables have
     none; a negative rest length marks a segment that a ring holds: :mod:`~mjcable.solvers.ring_kernels` projects it).
+    Each chain's α̃ and k are its cable's (``cables`` (C,) CABLE_PARAMS: the stretch's, or with gap 2 the bending's).
     α̃ = 0 and k = 1 take :func:`stretch_step_rigid`; ``relax`` non-empty: Jacobi's share of each (:func:`share`)."""
-    rigid = alpha_tilde == 0.0 and k == 1.0
     jacobi = relax.shape[0] > 0
     for chain in range(chains.shape[0]):
+        if gap == 1:
+            alpha_tilde, k = cables[chain].at_s, cables[chain].k_s
+        else:
+            alpha_tilde, k = cables[chain].at_b, cables[chain].k_b
+        rigid = alpha_tilde == 0.0 and k == 1.0
         for c in range(chains[chain, 0], chains[chain, 1] + 1 - gap):
             if rest[c] < 0.0:  # a segment a ring holds (ring_kernels)
                 continue
@@ -183,15 +188,16 @@ def stretch_sweep(x, out, w, react, rest, gap, alpha_tilde, lam, k, sqrt_approx,
 
 
 @_jit
-def curvature_sweep(x, out, w, react, inv_l0sq, alpha_tilde, lam, k, relax, chains):
+def curvature_sweep(x, out, w, react, cables, lam, relax, chains):
     """Curvature bending at every interior particle i = b + 1 of each chain (``chains`` (C, 2): each cable's
-    segments [first, stop)): the vector constraint
+    segments [first, stop); its l₀, α̃ and k its cable's, ``cables`` (C,) CABLE_PARAMS): the vector constraint
     C = (x_{i−1} − 2xᵢ + x_{i+1}) / l₀², the discrete curvature of a rod that is straight at rest, with energy
     ½ E·I |C|² l₀, i.e. α = 1 / (E·I·l₀). C is linear in x: its gradient is (1, −2, 1)/l₀² times the identity, so
     the three components decouple and each is one [M16] Eq. 18 update (Jacobi: its :func:`share`)."""
-    g2 = inv_l0sq * inv_l0sq
     for chain in range(chains.shape[0]):
-        _curvature_chain(x, out, w, react, inv_l0sq, g2, alpha_tilde, lam, k, relax, chains[chain])
+        cp = cables[chain]
+        inv_l0sq = cp.inv_l0sq
+        _curvature_chain(x, out, w, react, inv_l0sq, inv_l0sq * inv_l0sq, cp.at_b, lam, cp.k_b, relax, chains[chain])
 
 
 @_inline
@@ -270,15 +276,16 @@ def body_clamp_turn(S, kc, m, g, ex, ey, ez):
 
 
 @_jit
-def clamp_sweep(S, out, scale, alpha_tilde, k, relax):
+def clamp_sweep(S, out, relax):
     """Clamps: the tangent at pinned particle p is held along the clamp axis by the finite-difference clamped
     boundary (w'(0) = 0 through a mirrored ghost particle): two scalar constraints C_m = scale · d_m · (x_q − x_p),
     d_m ⟂ axis, scale = 2 / l₀², carrying half a Voronoi cell of bending energy (α = 2 / (E·I·l₀)); α = 0 holds
     the tangent rigidly. A cantilever of n segments then bends as beam theory to O(1/n²), where fixing the
     neighbour particle instead would clamp half a segment further out (2 % stiff at n = 100). A body clamp's
     directions turn with its body (:func:`body_clamp_turn`: the body's inverse inertia W joins the row's
-    Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment. ``relax`` non-empty:
-    Jacobi's :func:`share` of each row, for its particles and its body alike."""
+    Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment. l₀, α̃ and k are the
+    clamped cable's (``cable_par``). ``relax`` non-empty: Jacobi's :func:`share` of each row, for its particles and
+    its body alike."""
     x, w, react, lam = S.x, S.w, S.react, S.lam_c
     clamp_pq, clamp_pin, pin_active, clamp_dir = S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir
     for kc in range(clamp_pq.shape[0]):
@@ -286,6 +293,8 @@ def clamp_sweep(S, out, scale, alpha_tilde, k, relax):
             continue
         p = clamp_pq[kc, 0]
         q = clamp_pq[kc, 1]
+        cp = S.cable_par[S.seg_cable[min(p, q)]]
+        scale, alpha_tilde, k = 2.0 * cp.inv_l0sq, cp.at_c, cp.k_c
         wp = w[p]
         wq = w[q]
         turns = turns_body(S, kc)
@@ -323,15 +332,14 @@ def clamp_sweep(S, out, scale, alpha_tilde, k, relax):
 
 
 @_jit
-def _bend_clamp_sweeps(S, out, at_b, at_c, k_b, k_c, jacobi):
+def _bend_clamp_sweeps(S, out, jacobi):
     """Bending and clamp sweeps, corrections into ``out`` (with ``jacobi``, Jacobi's shares: ``S.relax``)."""
     x, w, react = S.x, S.w, S.react
     relax = S.relax if jacobi else S.relax[:0]
-    P = S.par[0]
-    bending, inv_l0sq = P.bending, P.inv_l0sq
+    bending = S.par[0].bending
     if bending == BEND_CURVATURE:
-        curvature_sweep(x, out, w, react, inv_l0sq, at_b, S.lam_b, k_b, relax, S.chain_seg)
+        curvature_sweep(x, out, w, react, S.cable_par, S.lam_b, relax, S.chain_seg)
     elif bending == BEND_DISTANCE:
-        stretch_sweep(x, out, w, react, S.rest_d, 2, at_b, S.lam_d, k_b, False, relax, S.chain_seg)
+        stretch_sweep(x, out, w, react, S.rest_d, 2, S.cable_par, S.lam_d, False, relax, S.chain_seg)
     if S.clamp_pq.shape[0]:
-        clamp_sweep(S, out, 2.0 * inv_l0sq, at_c, k_c, relax)
+        clamp_sweep(S, out, relax)

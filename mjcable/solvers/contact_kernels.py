@@ -295,7 +295,7 @@ def _project_contacts(S):
     the static obstacles' contacts come last. A held particle (w = 0) collects its share of ∇C Δλ in ``react``; a
     contact nearer a held particle than its segment's middle is left to the pin. Returns the most depth removed (m)."""
     P = S.par[0]
-    radius = P.radius
+    seg_radius = S.seg_radius  # (each segment's cable's radius)
     recover = DEPENETRATION_SPEED * P.h
     x, x0, w, react, moves = S.x, S.x0, S.w, S.react, S.shape_moves
     fric_n, fric_mu, fric_nsum, fric_normal, fric_ob, anchor_ob = (S.fric_n, S.fric_mu, S.fric_nsum, S.fric_normal,
@@ -343,7 +343,7 @@ def _project_contacts(S):
         flat = is_flat(face)  # a static plane or face: the half-space below
         if k >= 0 and not flat:  # measured against the shape
             cval, nx, ny, nz = shape_distance(px, py, pz, shapes, k, con_normal[c, 0], con_normal[c, 1],
-                                              con_normal[c, 2], con_offset[c], radius, con_face[c])
+                                              con_normal[c, 2], con_offset[c], seg_radius[i], con_face[c])
         else:
             nx, ny, nz = con_normal[c, 0], con_normal[c, 1], con_normal[c, 2]
             cval = nx * px + ny * py + nz * pz - con_offset[c]

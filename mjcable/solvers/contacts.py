@@ -45,7 +45,6 @@ class ObstacleContacts:
     def __init__(self, scene: Scene, mj_model: mujoco.MjModel, mj_data: mujoco.MjData, segment_geoms: np.ndarray,
                  pairs: slice = slice(None)):
         self.mj_model, self.mj_data = mj_model, mj_data
-        self.radius = shared_cable(scene, ("radius",)).radius
         self.pairs = pairs
         #: the geoms the cable is paired with: the scene's obstacles and, in a user world, its collidable geoms
         self.obstacle_geoms = np.unique(mj_model.pair_geom1[pairs]).astype(np.int64)

@@ -61,7 +61,7 @@ def compliances(scene: Scene) -> tuple:
 
     Raises:
       ValueError: several cables that differ in one of :data:`ROD_SHARED` (named, with both values)."""
-    cable = shared_cable(scene, ROD_SHARED)
+    cable = shared_cable(scene, ROD_SHARED, "model 'cosserat'")
     l0 = cable.segment_length
     ga = cable.shear * cable.area
     shear = 1.0 / (ga * l0) if ga > 0.0 else 0.0  # a rope without E: frames held to the tangent (Kirchhoff)

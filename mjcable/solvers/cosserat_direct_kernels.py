@@ -38,7 +38,7 @@ _REGULARIZATION = 1e-10
 def rod_direct_limp(S, h2):
     """One direct solve of a limp rod's stretch–shear rows (see the module docstring; ``h2`` = h², s²)."""
     P = S.par[0]
-    inv_l0sq = P.inv_l0sq
+    inv_l0sq = S.cable_par[0].inv_l0sq
     inv_l0 = math.sqrt(inv_l0sq)
     a0, a1, a2 = P.ss_alpha1 / h2, P.ss_alpha2 / h2, P.ss_alpha3 / h2
     x, w, q, wq, lam, react, sc = S.x, S.w, S.q, S.wq, S.lam_ss, S.react, S.cs_band

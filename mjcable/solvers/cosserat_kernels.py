@@ -362,7 +362,7 @@ def rod_gauss_seidel(S, h2):
     block and the bend–twist block between segments i and i + 1, then the end's clamp constraint, each a 3×3 [M16]
     Eq. 18 update applied at once (``h2`` = h², s²)."""
     P = S.par[0]
-    inv_l0 = math.sqrt(P.inv_l0sq)
+    inv_l0 = math.sqrt(S.cable_par[0].inv_l0sq)
     M = np.empty((3, 3))
     a_ss = (P.ss_alpha1 / h2, P.ss_alpha2 / h2, P.ss_alpha3 / h2)
     a_bt = (P.bt_alpha1 / h2, P.bt_alpha2 / h2, P.bt_alpha3 / h2)
@@ -374,7 +374,7 @@ def rod_gauss_seidel(S, h2):
         if not _ss_on(S, i):  # a gap between cables: no rows
             continue
         c0, c1, c2 = _linearise_ss(S, i, inv_l0)
-        _diag_ss(jac, w, wq, i, M, P.inv_l0sq)
+        _diag_ss(jac, w, wq, i, M, S.cable_par[0].inv_l0sq)
         d0, d1, d2 = _block_update(M, a_ss[0], a_ss[1], a_ss[2], lam_ss, i, c0, c1, c2)
         _apply_ss(S, i, d0, d1, d2, S.x, S.cs_db, True, inv_l0)
         if i < n - 1 and _bt_on(S, i):
@@ -412,8 +412,8 @@ def _assemble(S, h2, M):
     J W Jᵀ + α̃ into ``cs_band``: rows [start clamp, ss₀, bt₀, ss₁, …, ss_{n−1}, end clamp] (3 each, row of ssᵢ
     3 + 6i, of btᵢ 6 + 6i, the clamps' 0 and 6n; an absent clamp's rows are the identity with rhs 0)."""
     P = S.par[0]
-    inv_l0 = math.sqrt(P.inv_l0sq)
-    inv_l0sq = P.inv_l0sq
+    inv_l0 = math.sqrt(S.cable_par[0].inv_l0sq)
+    inv_l0sq = S.cable_par[0].inv_l0sq
     band, rhs, jac, w, wq = S.cs_band, S.cs_rhs, S.cs_jac, S.w, S.wq
     lam_ss, lam_bt, lam_end = S.lam_ss, S.lam_bt, S.lam_end
     n = lam_ss.shape[0]
@@ -515,7 +515,7 @@ def rod_direct(S, h2):
 def direct_rows(S):
     """The direct solve's Δλ (in ``cs_rhs``) added to the multipliers, and its moves W Jᵀ Δλ and turns D Jᵀ Δλ
     into ``dx`` and ``cs_db`` (zeroed first), not yet applied (:func:`direct_commit`)."""
-    inv_l0 = math.sqrt(S.par[0].inv_l0sq)
+    inv_l0 = math.sqrt(S.cable_par[0].inv_l0sq)
     rhs = S.cs_rhs
     lam_ss, lam_bt, lam_end = S.lam_ss, S.lam_bt, S.lam_end
     n = lam_ss.shape[0]
@@ -549,7 +549,7 @@ def direct_rows(S):
 def direct_commit(S):
     """Apply a direct solve's moves ``dx`` and turns ``cs_db``; returns :func:`rod_direct`'s bound."""
     P = S.par[0]
-    inv_l0 = math.sqrt(P.inv_l0sq)
+    inv_l0 = math.sqrt(S.cable_par[0].inv_l0sq)
     x, dx, db = S.x, S.dx, S.cs_db
     n = db.shape[0]
     s2x = s2b = 0.0  # Σ of the squared particle moves (m²) and frame turns (rad²): bounds of the largest

@@ -64,7 +64,7 @@ def rod_residual(S, h2):
     """The rod's largest residual |C + α̃ λ| over its rows (a limp rod's: its stretch–shear rows'), each as a
     strain or an angle (see the module docstring; ``h2`` = h², s²)."""
     P = S.par[0]
-    inv_l0 = math.sqrt(P.inv_l0sq)
+    inv_l0 = math.sqrt(S.cable_par[0].inv_l0sq)
     l0 = 1.0 / inv_l0
     a_ss = (P.ss_alpha1 / h2, P.ss_alpha2 / h2, P.ss_alpha3 / h2)
     a_bt = (P.bt_alpha1 / h2, P.bt_alpha2 / h2, P.bt_alpha3 / h2)
@@ -121,7 +121,7 @@ def _pins_travel(S):
         d1 = S.pin_to[k, 1] - S.pin_from[k, 1]
         d2 = S.pin_to[k, 2] - S.pin_from[k, 2]
         top = max(top, d0 * d0 + d1 * d1 + d2 * d2)
-    return math.sqrt(top * P.inv_l0sq) / P.substeps
+    return math.sqrt(top * S.cable_par[0].inv_l0sq) / P.substeps
 
 
 @_jit
@@ -237,9 +237,10 @@ def frames_begin(S, sub, n_sub):
     clamps' frames to their targets (:func:`clamp_frames`; in a user world the host did), and reset the rod's
     multipliers and the clamps' reactions."""
     P = S.par[0]
-    h, damp = P.h, P.damp
+    h = P.h
     q, q0, om, inertia, wq = S.q, S.q0, S.omega, S.inertia, S.wq
     for i in range(q.shape[0]):
+        damp = S.damp[i]  # (its cable's, as its first particle's)
         q0[i, 0], q0[i, 1], q0[i, 2], q0[i, 3] = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
         wx, wy, wz = om[i, 0], om[i, 1], om[i, 2]
         lx, ly, lz = inertia[i, 0] * wx, inertia[i, 1] * wy, inertia[i, 2] * wz

@@ -112,7 +112,7 @@ def rod_direct_closed(S, h2):
     the band's rows and the extra rows (three per weld, then three per junction) solved together through the Schur
     complement of the band. Returns the same bound."""
     P = S.par[0]
-    inv_l0 = math.sqrt(P.inv_l0sq)
+    inv_l0 = math.sqrt(S.cable_par[0].inv_l0sq)
     t = np.empty((8, 3, 3))
     _assemble(S, h2, t[0])
     band, rhs, jac, wq, w, x = S.cs_band, S.cs_rhs, S.cs_jac, S.wq, S.w, S.x

@@ -104,11 +104,26 @@ def _in_gap(seg_cable, kind, idx):
 
 
 @_inline
-def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
+def _row_cable(S, kind, idx):
+    """The cable (a row of ``cable_par``) of row ``idx`` of kind ``kind``: its segment's (a clamp's, the segment
+    between its two particles; a row in a gap, which is skipped: the first cable's)."""
+    if kind == ROW_CLAMP:
+        seg = min(S.clamp_pq[idx // 2, 0], S.clamp_pq[idx // 2, 1])
+    elif kind == ROW_CURVATURE:
+        seg = idx // 3
+    elif kind == ROW_TRANSVERSE:
+        seg = idx // 2
+    else:
+        seg = idx
+    return max(S.seg_cable[seg], 0)
+
+
+@_inline
+def _direct_residuals(S, rows):
     """Linearise every row of ``rows`` (``row_kind``, ``row_idx``, ``row_p``, ``prow``, ``pslot``, ``band``,
     ``grad``, ``rhs`` of the state, or their ``gs_`` twins) at the current x: ∇C into ``grad``, −C − α̃ λ into
-    ``rhs`` and α̃ into ``band[:, 0]`` (the rest of ``band`` zeroed). Returns ρ = max |C + α̃ λ| / rest over the
-    distance rows.
+    ``rhs`` and α̃ into ``band[:, 0]`` (the rest of ``band`` zeroed), each row's α̃ and l₀ its cable's
+    (``cable_par``). Returns ρ = max |C + α̃ λ| / rest over the distance rows.
 
     A transverse row (ROW_TRANSVERSE, two per stretch row i of tension T = −λ / h² in ``lam_gs``) is the stretch
     row's geometric stiffness −λ ∇²C = −λ (I − n nᵀ) / |d| (on the blocks [[1, −1], [−1, 1]]) written as a compliant
@@ -123,7 +138,6 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
     rest, rest_d = S.rest, S.rest_d
     clamp_dir, clamp_pin, pin_active = S.clamp_dir, S.clamp_pin, S.pin_active
-    inv_l0sq = S.par[0].inv_l0sq
     nrow = rhs.shape[0]
     band[:] = 0.0
     grad[:] = 0.0
@@ -137,13 +151,14 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
             continue
         cval = 0.0
         lam = 0.0
-        at = alpha_b_t
+        cp = S.cable_par[_row_cable(S, kind, idx)]
+        at = cp.at_b
         if kind == ROW_STRETCH or kind == ROW_DISTANCE:
             i, j = row_p[r, 0], row_p[r, 1]
             dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
             length = math.sqrt(dx * dx + dy * dy + dz * dz)
             if kind == ROW_STRETCH:
-                at = alpha_s_t
+                at = cp.at_s
                 lam = lam_s[idx]
                 rl = rest[idx]
             else:
@@ -174,15 +189,16 @@ def _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t):
             b, comp = idx // 3, idx % 3
             i = b + 1
             lam = lam_b[b, comp]
+            inv_l0sq = cp.inv_l0sq
             cval = (x[i - 1, comp] - 2.0 * x[i, comp] + x[i + 1, comp]) * inv_l0sq
             grad[r, 0, comp], grad[r, 1, comp], grad[r, 2, comp] = inv_l0sq, -2.0 * inv_l0sq, inv_l0sq
         else:  # ROW_CLAMP
-            at = alpha_c_t
+            at = cp.at_c
             kc, m = idx // 2, idx % 2
             if pin_active[clamp_pin[kc]]:
                 p, q = row_p[r, 0], row_p[r, 1]
                 lam = lam_c[kc, m]
-                scale = 2.0 * inv_l0sq
+                scale = 2.0 * cp.inv_l0sq
                 for comp in range(3):
                     d = scale * clamp_dir[kc, m, comp]
                     grad[r, 0, comp] = -d
@@ -219,10 +235,11 @@ def _schur_assemble(S, rows):
                     band[ra, ra - rb] += wp * dot
                 else:
                     band[rb, rb - ra] += wp * dot
-    scale2 = 4.0 * S.par[0].inv_l0sq * S.par[0].inv_l0sq
     for r in range(nrow if S.clamp_pq.shape[0] else 0):  # (a chain without clamps has no clamp rows)
         kc = row_idx[r] // 2  # a body clamp's rows: its body's turn, scale² (d_a × e)ᵀ W (d_b × e), m = 1 after 0
         if row_kind[r] == ROW_CLAMP and turns_body(S, kc) and S.pin_active[S.clamp_pin[kc]]:
+            inv_l0sq = S.cable_par[_row_cable(S, ROW_CLAMP, row_idx[r])].inv_l0sq
+            scale2 = 4.0 * inv_l0sq * inv_l0sq
             m, p, q = row_idx[r] % 2, row_p[r, 0], row_p[r, 1]
             e0, e1, e2 = x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2]
             band[r, 0] += scale2 * body_turn_dot(S, kc, m, m, e0, e1, e2)
@@ -237,10 +254,11 @@ def _schur_assemble(S, rows):
 
 
 @_inline
-def _direct_apply(S, rows, k_s, k_b, k_c):
+def _direct_apply(S, rows, unit):
     """λ += k Δλ and x += W Jᵀ k Δλ ([M16] Eq. 17) for the Δλ that :func:`banded_ldlt_solve` left in ``rows``'
-    ``rhs``. A transverse row's Δλ moves the particles (and adds to a held one's reaction: its share of the
-    geometric stiffness, the turn of the stretch row's force over the step) but is no multiplier of its own."""
+    ``rhs``, k the row's cable's factor (``cable_par``; with ``unit``, 1). A transverse row's Δλ moves the particles
+    (and adds to a held one's reaction: its share of the geometric stiffness, the turn of the stretch row's force
+    over the step) but is no multiplier of its own."""
     x, w, react = S.x, S.w, S.react
     row_kind, row_idx, row_p, _, _, _, grad, rhs = rows
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
@@ -248,11 +266,17 @@ def _direct_apply(S, rows, k_s, k_b, k_c):
         # a body clamp's share, τ = ∇_θ C Δλ at the linearisation's x: its body turns
         if row_kind[r] == ROW_CLAMP and rhs[r] != 0.0 and turns_body(S, row_idx[r] // 2):
             p, q = row_p[r, 0], row_p[r, 1]
-            body_clamp_turn(S, row_idx[r] // 2, row_idx[r] % 2, 2.0 * S.par[0].inv_l0sq * k_c * rhs[r],
+            cp = S.cable_par[_row_cable(S, ROW_CLAMP, row_idx[r])]
+            k_c = 1.0 if unit else cp.k_c
+            body_clamp_turn(S, row_idx[r] // 2, row_idx[r] % 2, 2.0 * cp.inv_l0sq * k_c * rhs[r],
                             x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2])
     for r in range(rhs.shape[0]):
         kind = row_kind[r]
         idx = row_idx[r]
+        k_s = k_b = k_c = 1.0
+        if not unit:
+            cp = S.cable_par[_row_cable(S, kind, idx)]
+            k_s, k_b, k_c = cp.k_s, cp.k_b, cp.k_c
         if kind == ROW_STRETCH:
             dlam = k_s * rhs[r]
             lam_s[idx] += dlam
@@ -295,7 +319,7 @@ def _tension_is_stiff(lam, rest, w):
 
 
 @_inline
-def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
+def _chord_rhs(S, rows):
     """The right-hand side of a chord step (a Newton step with the last solve's factors) after a solve over
     ``rows``: −C − α̃ λ of the distance rows (stretch, distance bending) at the new x, 0 for the rows that the solve
     met exactly (curvature and clamps are linear in x; a transverse row's C⊥ is its linearisation) and for a hard
@@ -319,19 +343,20 @@ def _chord_rhs(S, rows, alpha_s_t, alpha_b_t):
         dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         idx = row_idx[r]
+        cp = S.cable_par[_row_cable(S, kind, idx)]
         if kind == ROW_STRETCH:
             if S.rest[idx] < 0.0:  # a segment a ring holds
                 continue
-            rhs[r] = -(length - S.rest[idx]) - alpha_s_t * S.lam_s[idx]
+            rhs[r] = -(length - S.rest[idx]) - cp.at_s * S.lam_s[idx]
             rho = max(rho, abs(rhs[r]) / S.rest[idx])
         else:
-            rhs[r] = -(length - S.rest_d[idx]) - alpha_b_t * S.lam_d[idx]
+            rhs[r] = -(length - S.rest_d[idx]) - cp.at_b * S.lam_d[idx]
             rho = max(rho, abs(rhs[r]) / S.rest_d[idx])
     return rho
 
 
 @_inline
-def _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
+def _direct_once(S):
     """One direct solve at the current x over the chain's rows, or, where the model's multipliers are forces
     (``par.geometric``) and the last solve found the tension stiff (``par.gs_stiff``, :func:`_tension_is_stiff`),
     the same rows with their geometric stiffness: block by block for a chain of stretch rows only (``par.gs_chain``,
@@ -339,15 +364,15 @@ def _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
     it."""
     P = S.par[0]
     if P.gs_stiff and P.gs_chain:
-        rho = _chain_geometric_solve(S, alpha_s_t)
+        rho = _chain_geometric_solve(S)
     elif P.gs_stiff:
-        rho = _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t)
+        rho = _direct_once_geometric(S)
     else:
         rows = (S.row_kind, S.row_idx, S.row_p, S.prow, S.pslot, S.band, S.grad, S.rhs)
-        rho = _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t)
+        rho = _direct_residuals(S, rows)
         _schur_assemble(S, rows)
         banded_ldlt_solve(S.band, S.rhs, P.bandwidth)
-        _direct_apply(S, rows, k_s, k_b, k_c)
+        _direct_apply(S, rows, False)
     if P.geometric:  # the next solve's rows (in the next substep from these multipliers, reset by then)
         P.gs_stiff = _tension_is_stiff(S.lam_s, S.rest, S.w)
         if P.gs_stiff:
@@ -357,7 +382,7 @@ def _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
 
 
 @_jit
-def _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t):
+def _direct_once_geometric(S):
     """One direct solve over the rows with the stretch rows' geometric stiffness (the ``gs_`` rows, see
     :func:`_direct_residuals`) from the last solve's multipliers (``lam_gs``), followed by a chord step
     (:func:`_chord_rhs`); XPBD's (k = 1). In a substep's first solve the multipliers are the previous substep's (λ
@@ -365,25 +390,27 @@ def _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t):
     substep's so far, which makes it Newton's step. Returns ρ before it."""
     rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs)
     bandwidth = S.par[0].gs_bandwidth
-    rho = _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t)
+    rho = _direct_residuals(S, rows)
     _schur_assemble(S, rows)
     _banded_ldlt_factor(S.gs_band, bandwidth)
     _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
-    _direct_apply(S, rows, 1.0, 1.0, 1.0)
-    if _chord_rhs(S, rows, alpha_s_t, alpha_b_t) <= _DIRECT_RESIDUAL_FLOOR:  # a chord step (see _chord_rhs)
+    _direct_apply(S, rows, True)
+    if _chord_rhs(S, rows) <= _DIRECT_RESIDUAL_FLOOR:  # a chord step (see _chord_rhs)
         _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
-        _direct_apply(S, rows, 1.0, 1.0, 1.0)
+        _direct_apply(S, rows, True)
     return rho
 
 
 @_inline
-def _distance_rows_within(x, rest, gap, alpha_tilde, lam, tol, chains):
+def _distance_rows_within(x, rest, gap, cables, lam, tol, chains):
     """Whether every distance constraint C = |xᵢ − xᵢ₊gap| − rest (thesis Eq. 2.9) of each chain (``chains`` (C, 2):
     each cable's segments [first, stop)) has |C + α̃ λ| ≤ tol · rest, the XPBD residual ([M16] Eq. 18's numerator)
     that a converged solve drives to zero. Without a square root or a division: with the target length
     t = rest − α̃ λ and margin e = tol · rest, |d| − t ∈ [−e, e] iff |d|² ≤ (t + e)² and |d|² ≥ (t − e)² (the
-    latter always true when t ≤ e)."""
+    latter always true when t ≤ e). α̃ is each chain's cable's (``cables`` (C,) CABLE_PARAMS: the stretch's, or with
+    gap 2 the bending's)."""
     for chain in range(chains.shape[0]):
+        alpha_tilde = cables[chain].at_s if gap == 1 else cables[chain].at_b
         if not _chain_rows_within(x, rest, gap, alpha_tilde, lam, tol, chains[chain, 0], chains[chain, 1]):
             return False
     return True
@@ -407,18 +434,18 @@ def _chain_rows_within(x, rest, gap, alpha_tilde, lam, tol, first, stop):
 
 
 @_inline
-def _direct_within(S, alpha_s_t, alpha_b_t, tol):
+def _direct_within(S, tol):
     """Whether the direct solve's distance rows (stretch, and distance bending if solved) have relative residuals
     |C + α̃ λ| / rest ≤ tol."""
-    if not _distance_rows_within(S.x, S.rest, 1, alpha_s_t, S.lam_s, tol, S.chain_seg):
+    if not _distance_rows_within(S.x, S.rest, 1, S.cable_par, S.lam_s, tol, S.chain_seg):
         return False
     if S.par[0].direct_all and S.par[0].bending == BEND_DISTANCE:
-        return _distance_rows_within(S.x, S.rest_d, 2, alpha_b_t, S.lam_d, tol, S.chain_seg)
+        return _distance_rows_within(S.x, S.rest_d, 2, S.cable_par, S.lam_d, tol, S.chain_seg)
     return True
 
 
 @_jit
-def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
+def direct_solve(S):
     """One direct iteration over all chain constraints (stretch, bending, clamps) at once: the linearised XPBD
     system (J W Jᵀ + α̃) Δλ = −C − α̃ λ ([M16]'s linearised system with its g term dropped, as there) is banded
     for a chain and is solved exactly by :func:`banded_ldlt_solve` ([D18]); Δx = W Jᵀ Δλ. With stretch rows only
@@ -437,7 +464,8 @@ def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
     up. So the relative residual of the distance rows, ρ = max |C + α̃ λ| / rest, before the solve (ρ₀, from the
     linearisation) is compared with its value after (one pass over the distance rows, without a square root):
 
-    * ρ ≤ max(ρ_floor, (1 − k (1 − κ)) ρ₀), κ = ``_DIRECT_CONTRACTION``, ρ_floor = ``_DIRECT_RESIDUAL_FLOOR``:
+    * ρ ≤ max(ρ_floor, (1 − k (1 − κ)) ρ₀), κ = ``_DIRECT_CONTRACTION``, ρ_floor = ``_DIRECT_RESIDUAL_FLOOR``, k
+      the smallest of the cables' stretch factors:
       the solve is accepted. It is a Newton step on C(x) + α̃ λ = 0 along Δx = W Jᵀ Δλ (each XPBD iteration is
       such a step, with the geometric stiffness and [M16]'s g dropped), which within its region of convergence
       shrinks ρ to second order; with k < 1 only k of the residual is removed. This is the normal case: one solve
@@ -450,24 +478,27 @@ def direct_solve(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
       segment within a substep), one nonlinear Gauss-Seidel sweep of the same rows follows ([M16] Eq. 18 per
       constraint, as ``order="gauss-seidel"``): each projection solves its own constraint exactly, without overshoot.
     """
-    rho0 = _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c)
+    rho0 = _direct_once(S)
+    k_s = S.cable_par[0].k_s
+    for c in range(1, S.cable_par.shape[0]):
+        k_s = min(k_s, S.cable_par[c].k_s)
     tol = max(_DIRECT_RESIDUAL_FLOOR, (1.0 - k_s * (1.0 - _DIRECT_CONTRACTION)) * rho0)
-    if not _direct_within(S, alpha_s_t, alpha_b_t, tol):
-        _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0, tol)
+    if not _direct_within(S, tol):
+        _direct_relinearise(S, rho0, tol)
 
 
 @_jit
-def _direct_relinearise(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c, rho0, tol):
+def _direct_relinearise(S, rho0, tol):
     """The safeguard of :func:`direct_solve` after a rejected solve: further Newton steps (re-linearised solves)
     until every relative residual is within ``tol``, at most ``_DIRECT_MAX_SOLVES`` solves in all; then, if some
     is still above ρ₀, one Gauss-Seidel sweep of the same rows ([M16] Eq. 18 per constraint)."""
     for _ in range(_DIRECT_MAX_SOLVES - 1):
-        _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c)
-        if _direct_within(S, alpha_s_t, alpha_b_t, tol):
+        _direct_once(S)
+        if _direct_within(S, tol):
             return
-    if not _direct_within(S, alpha_s_t, alpha_b_t, rho0):  # Newton diverging: project the rows one by one
+    if not _direct_within(S, rho0):  # Newton diverging: project the rows one by one
         x = S.x
-        stretch_sweep(x, x, S.w, S.react, S.rest, 1, alpha_s_t, S.lam_s, k_s, S.par[0].sqrt_approx,
-                      S.relax[:0], S.chain_seg)
+        stretch_sweep(x, x, S.w, S.react, S.rest, 1, S.cable_par, S.lam_s, S.par[0].sqrt_approx, S.relax[:0],
+                      S.chain_seg)
         if S.par[0].direct_all and (S.par[0].bending != BEND_NONE or S.clamp_pq.shape[0] > 0):
-            _bend_clamp_sweeps(S, x, alpha_b_t, alpha_c_t, k_b, k_c, False)
+            _bend_clamp_sweeps(S, x, False)

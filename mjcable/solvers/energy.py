@@ -37,14 +37,15 @@ from mjcable.solvers import kernels_layout as layout
 __all__ = ["elastic_energy", "rod_energy", "row_compliance"]
 
 
-def row_compliance(alpha: float, k_iteration: float, iterations: int, h: float, wsum: np.ndarray) -> np.ndarray:
+def row_compliance(alpha, k_iteration, iterations: int, h: float, wsum: np.ndarray) -> np.ndarray:
     """``(R,)`` the compliance (the row's unit / N) each row of generalised inverse mass ``wsum`` (R,) acts with:
-    XPBD's ``alpha`` plus the per-iteration factor's h² W (1 − k_s) / k_s, k_s = 1 − (1 − k)^iterations; ``inf``
-    for a row switched off (k_s = 0), 0 for a hard one."""
-    k_sub = 1.0 - (1.0 - k_iteration) ** iterations
-    if k_sub <= 0.0:
-        return np.full(np.shape(wsum), np.inf)
-    return alpha + h * h * np.asarray(wsum) * (1.0 - k_sub) / k_sub
+    XPBD's ``alpha`` plus the per-iteration factor's h² W (1 − k_s) / k_s, k_s = 1 − (1 − k)^iterations (``alpha``
+    and ``k_iteration`` per row (R,), or one for all); ``inf`` for a row switched off (k_s = 0), 0 for a hard one."""
+    k_sub = 1.0 - (1.0 - np.asarray(k_iteration, dtype=np.float64)) ** iterations
+    on = k_sub > 0.0
+    soft = np.divide(1.0 - k_sub, k_sub, out=np.zeros_like(k_sub), where=on)
+    out = alpha + h * h * np.asarray(wsum) * soft
+    return np.where(on, out, np.inf)
 
 
 def _potential(c2: np.ndarray, alpha: np.ndarray) -> float:
@@ -58,29 +59,31 @@ def elastic_energy(a) -> tuple:
     ``x``, ``w``, ``rest``, ``rest_d``, the clamps and the parameter record ``par``)."""
     x, w = a["x"], a["w"]
     P = a["par"][0]
-    h, n_it, inv_l0sq = float(P["h"]), int(P["iterations"]), float(P["inv_l0sq"])
+    h, n_it = float(P["h"]), int(P["iterations"])
+    cp = a["cable_par"][np.maximum(a["seg_cable"], 0)]  # (n,) each segment's cable's parameters
     link = (a["seg_cable"] >= 0) & (a["rest"] > 0.0)  # the cables' segments (not the gaps, nor those rings hold)
     triplet = link[:-1] & link[1:]
     seg = np.linalg.norm(np.diff(x, axis=0), axis=1)
-    stretch = _potential(((seg - a["rest"]) ** 2)[link],
-                         row_compliance(float(P["alpha_s"]), float(P["k_s"]), n_it, h, (w[:-1] + w[1:])[link]))
-    alpha_b, k_b = float(P["alpha_b"]), float(P["k_b"])
+    stretch = _potential(((seg - a["rest"]) ** 2)[link], row_compliance(
+        cp["alpha_s"][link], cp["k_s"][link], n_it, h, (w[:-1] + w[1:])[link]))
+    bend = cp[:-1][triplet]  # each bending row's cable's
     bending = 0.0
     if P["bending"] == layout.BEND_CURVATURE and len(x) > 2:
-        c = ((x[:-2] - 2.0 * x[1:-1] + x[2:]) * inv_l0sq)[triplet]
-        wsum = ((w[:-2] + 4.0 * w[1:-1] + w[2:]) * inv_l0sq**2)[triplet]
-        bending += _potential(np.einsum("ij,ij->i", c, c), row_compliance(alpha_b, k_b, n_it, h, wsum))
+        inv_l0sq = bend["inv_l0sq"][:, None]
+        c = ((x[:-2] - 2.0 * x[1:-1] + x[2:])[triplet] * inv_l0sq)
+        wsum = (w[:-2] + 4.0 * w[1:-1] + w[2:])[triplet] * bend["inv_l0sq"] ** 2
+        bending += _potential(np.einsum("ij,ij->i", c, c), row_compliance(bend["alpha_b"], bend["k_b"], n_it, h, wsum))
     elif P["bending"] == layout.BEND_DISTANCE and len(x) > 2:
         c = (np.linalg.norm(x[2:] - x[:-2], axis=1) - a["rest_d"])[triplet]
-        bending += _potential(c * c, row_compliance(alpha_b, k_b, n_it, h, (w[:-2] + w[2:])[triplet]))
+        bending += _potential(c * c, row_compliance(bend["alpha_b"], bend["k_b"], n_it, h, (w[:-2] + w[2:])[triplet]))
     active = a["pin_active"][a["clamp_pin"]]
     if np.any(active):
         p, q = a["clamp_pq"][active, 0], a["clamp_pq"][active, 1]
-        scale = 2.0 * inv_l0sq
-        c = scale * np.einsum("kmj,kj->km", a["clamp_dir"][active], x[q] - x[p])
+        held = cp[np.minimum(p, q)]  # each clamp's cable's
+        scale = 2.0 * held["inv_l0sq"]
+        c = scale[:, None] * np.einsum("kmj,kj->km", a["clamp_dir"][active], x[q] - x[p])
         wsum = (w[p] + w[q]) * scale * scale
-        bending += _potential(np.sum(c * c, axis=1),
-                              row_compliance(float(P["alpha_c"]), float(P["k_c"]), n_it, h, wsum))
+        bending += _potential(np.sum(c * c, axis=1), row_compliance(held["alpha_c"], held["k_c"], n_it, h, wsum))
     return stretch, bending
 
 
@@ -113,7 +116,7 @@ def rod_energy(a) -> tuple:
     ``darboux0``, the clamps, ``par``)."""
     x, q = a["x"], a["q"]
     P = a["par"][0]
-    l0 = float(np.sqrt(1.0 / P["inv_l0sq"]))
+    l0 = float(a["cable_par"][0]["l0"])  # (a rod's cables share one segment length)
     a_ss = (float(P["ss_alpha1"]), float(P["ss_alpha2"]), float(P["ss_alpha3"]))
     a_bt = (float(P["bt_alpha1"]), float(P["bt_alpha2"]), float(P["bt_alpha3"]))
     link = a["seg_cable"] >= 0  # the segments of the cables (not the gaps between them, which store nothing)

@@ -119,8 +119,6 @@ def resolve_impact(S):
     and clamps, the contacts and friction, until an iteration's contact and friction corrections are at most
     ``par.impact_tol`` (m). Returns the iterations taken."""
     P = S.par[0]
-    h2 = P.h * P.h
-    at_b, at_c = P.alpha_b / h2, P.alpha_c / h2
     bend_or_clamp = P.bending != BEND_NONE or S.clamp_pq.shape[0] > 0
     scratch = np.empty((S.x.shape[0] - 1, 6))
     P.impacts += 1
@@ -129,7 +127,7 @@ def resolve_impact(S):
         taken += 1
         held_chain_solve(S, scratch)
         if bend_or_clamp:
-            _bend_clamp_sweeps(S, S.x, at_b, at_c, P.k_b, P.k_c, False)
+            _bend_clamp_sweeps(S, S.x, False)
         if S.junction_p.shape[0]:
             junction_sweep(S)
         moved = max(contact_sweep(S), friction_sweep(S, variable(False)))

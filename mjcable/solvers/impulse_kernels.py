@@ -35,7 +35,6 @@ def collect_impulses(S):
     gave the cable (Σ m Δx for free particles), −Σ j / h² the force on the obstacle. Self contacts are internal and give
     nothing."""
     P = S.par[0]
-    radius = P.radius
     x, w, fric_n, fric_impulse = S.x, S.w, S.fric_n, S.fric_impulse
     seg, con_s, con_normal, con_offset, con_shape, lam = (S.con_seg, S.con_s, S.con_normal, S.con_offset,
                                                           S.con_shape, S.con_lam)
@@ -47,6 +46,7 @@ def collect_impulses(S):
             continue
         i = seg[c]
         s = con_s[c]
+        radius = S.seg_radius[i]  # (its cable's)
         px = (1.0 - s) * x[i, 0] + s * x[i + 1, 0]
         py = (1.0 - s) * x[i, 1] + s * x[i + 1, 1]
         pz = (1.0 - s) * x[i, 2] + s * x[i + 1, 2]

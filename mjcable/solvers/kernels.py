@@ -85,7 +85,7 @@ def _predict(x, v, x0, w, react, h, damp, gx, gy, gz):
     """Predict: x₀ ← x, and for every free particle (w > 0) v ← e^{−c h} v + h g, x ← x + h v (semi-implicit
     Euler in velocity form; Verlet is the same recurrence with v read as (x − x_prev)/h, [T20] Eq. 2.7 with
     Jakobsen's damping); a held particle's (w = 0) reaction ``react`` ← 0. ``x``, ``v``, ``x0``, ``react`` (N, 3)
-    m, m/s, kg·m; ``w`` (N,) 1/kg; ``damp`` = e^{−c h}; ``h`` s; g m/s².
+    m, m/s, kg·m; ``w`` (N,) 1/kg; ``damp`` (N,) each particle's e^{−c h} (its cable's c); ``h`` s; g m/s².
 
     Only held particles collect reactions (every sweep adds to ``react`` where w = 0, moves ``x`` elsewhere) and
     only pinned particles are ever held, so a free particle's row stays 0 without being zeroed every substep
@@ -96,9 +96,10 @@ def _predict(x, v, x0, w, react, h, damp, gx, gy, gz):
         x0[p, 2] = x[p, 2]
         if w[p] > 0.0:
             # damping multiplies the velocity before gravity is added: it never changes a static equilibrium
-            v[p, 0] = damp * v[p, 0] + h * gx
-            v[p, 1] = damp * v[p, 1] + h * gy
-            v[p, 2] = damp * v[p, 2] + h * gz
+            e = damp[p]
+            v[p, 0] = e * v[p, 0] + h * gx
+            v[p, 1] = e * v[p, 1] + h * gy
+            v[p, 2] = e * v[p, 2] + h * gz
             x[p, 0] += h * v[p, 0]
             x[p, 1] += h * v[p, 1]
             x[p, 2] += h * v[p, 2]
@@ -149,7 +150,7 @@ def begin_substep(S, sub, n_sub):
     multipliers (every substep, [M16] Algorithm 1)."""
     P = S.par[0]
     kick = _gravity_kick(P)
-    _predict(S.x, S.v, S.x0, S.w, S.react, P.h, P.damp, kick * P.gx, kick * P.gy, kick * P.gz)
+    _predict(S.x, S.v, S.x0, S.w, S.react, P.h, S.damp, kick * P.gx, kick * P.gy, kick * P.gz)
     _move_pins(S, sub, n_sub)
     if S.q.shape[0]:  # a Cosserat rod's frames (cosserat_kernels)
         frames_begin(S, sub, n_sub)
@@ -176,34 +177,32 @@ def iterate(S, last):
     read the sums after it. Junctions follow the chains (:mod:`~mjcable.solvers.junction_kernels`). Returns whether it
     did."""
     P = S.par[0]
-    h2 = P.h * P.h
-    at_s, at_b, at_c = P.alpha_s / h2, P.alpha_b / h2, P.alpha_c / h2
-    k_s, k_b, k_c = P.k_s, P.k_b, P.k_c
     order = P.order
+    cables = S.cable_par
     x, w = S.x, S.w
     bend_or_clamp = P.bending != BEND_NONE or S.clamp_pq.shape[0] > 0
     if S.q.shape[0]:  # a Cosserat rod: its stretch–shear and bend–twist constraints replace the chain's
         rod_iterate(S)
     elif order == ORDER_DIRECT:
-        direct_solve(S, at_s, at_b, at_c, k_s, k_b, k_c)
+        direct_solve(S)
         if not P.direct_all and bend_or_clamp:  # PBD/Jakobsen: only the stretch chain is solved directly
-            _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
+            _bend_clamp_sweeps(S, x, False)
     elif order == ORDER_JACOBI:  # every constraint's share of its correction into dx, then all at once
         dx = S.dx
         dx[:] = 0.0
         jacobi_relax(S)
-        stretch_sweep(x, dx, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax, S.chain_seg)
+        stretch_sweep(x, dx, w, S.react, S.rest, 1, cables, S.lam_s, P.sqrt_approx, S.relax, S.chain_seg)
         if bend_or_clamp:
-            _bend_clamp_sweeps(S, dx, at_b, at_c, k_b, k_c, True)
+            _bend_clamp_sweeps(S, dx, True)
         for p in range(x.shape[0]):
             if w[p] > 0.0:
                 x[p, 0] += dx[p, 0]
                 x[p, 1] += dx[p, 1]
                 x[p, 2] += dx[p, 2]
     else:
-        stretch_sweep(x, x, w, S.react, S.rest, 1, at_s, S.lam_s, k_s, P.sqrt_approx, S.relax[:0], S.chain_seg)
+        stretch_sweep(x, x, w, S.react, S.rest, 1, cables, S.lam_s, P.sqrt_approx, S.relax[:0], S.chain_seg)
         if bend_or_clamp:  # a call passing S: skipped when there is nothing to do
-            _bend_clamp_sweeps(S, x, at_b, at_c, k_b, k_c, False)
+            _bend_clamp_sweeps(S, x, False)
     if S.junction_p.shape[0]:  # the junctions after the chains (junction_kernels)
         junction_sweep(S)
     if S.ring_p.shape[0]:  # the rings after them (ring_kernels)
@@ -315,13 +314,13 @@ def plain_substep(S, sub, n_sub):
     x, w, react, lam_s = S.x, S.w, S.react, S.lam_s
     h = P.h
     kick = _gravity_kick(P)
-    _predict(x, S.v, S.x0, w, react, h, P.damp, kick * P.gx, kick * P.gy, kick * P.gz)
+    _predict(x, S.v, S.x0, w, react, h, S.damp, kick * P.gx, kick * P.gy, kick * P.gz)
     _move_pins(S, sub, n_sub)
     lam_s[:] = 0.0
-    at_s, k_s, sqrt_approx = P.alpha_s / (h * h), P.k_s, P.sqrt_approx
+    cables, sqrt_approx = S.cable_par, P.sqrt_approx
     rest, chains = S.rest, S.chain_seg
     for _ in range(P.iterations):
-        stretch_sweep(x, x, w, react, rest, 1, at_s, lam_s, k_s, sqrt_approx, S.relax[:0], chains)
+        stretch_sweep(x, x, w, react, rest, 1, cables, lam_s, sqrt_approx, S.relax[:0], chains)
     _velocities(x, S.v, S.x0, 1.0 / h)
     return _pin_forces(S)
 
@@ -404,7 +403,7 @@ def _step_contacts(S, given):
         margin = step_margin(S.v, P.contact_margin, P.dt, P.fall)
         if obstacles and not given and P.keep_queries and query_holds(x, margin, S.query_x, P.query_margin):
             n_con = P.n_con  # the last query's contacts, still in the buffers (they hold every pair the step needs)
-        elif obstacles and touches_obstacles(x, margin + P.radius, S.box_lo, S.box_hi, S.plane_n, S.plane_p):
+        elif obstacles and touches_obstacles(x, margin + P.max_radius, S.box_lo, S.box_hi, S.plane_n, S.plane_p):
             if given:  # Python queried them at par.margin
                 n_con = P.n_con
                 wide = P.margin
@@ -426,7 +425,7 @@ def _step_contacts(S, given):
             for p in range(P.pair_start, P.pair_stop):
                 S.pair_margin[p] = PAIRS_OFF
         if segments:
-            n_self = self_contacts(S, 2.0 * P.radius + margin)
+            n_self = self_contacts(S, 2.0 * P.max_radius + margin)
     P.n_con, P.n_self = n_con, n_self
     return True
 

@@ -25,8 +25,8 @@ from numba.experimental import structref
 
 from mjcable.solvers._kernel_cache import jit as _jit
 
-__all__ = ["SolverState", "SolverStateType", "STATE_TYPE", "PARAMS", "FIELDS", "assemble", "contact_buffers",
-           "self_contact_buffers", "Shapes"]
+__all__ = ["SolverState", "SolverStateType", "STATE_TYPE", "PARAMS", "CABLE_PARAMS", "FIELDS", "assemble",
+           "contact_buffers", "self_contact_buffers", "Shapes"]
 
 ORDER_GAUSS_SEIDEL, ORDER_JACOBI, ORDER_DIRECT = 0, 1, 2
 BEND_NONE, BEND_CURVATURE, BEND_DISTANCE = 0, 1, 2
@@ -80,13 +80,10 @@ PAIRS_OFF = -1e10  # m: a pair margin no pair of geoms is closer than (switches 
 
 #: The solver's scalars, one record (``SolverState.par``, a length-1 array of this dtype).
 PARAMS = np.dtype([
-    # the substep: h (s), damping factor e^{−c h}, gravity (m/s²)
-    ("h", "f8"), ("damp", "f8"), ("gx", "f8"), ("gy", "f8"), ("gz", "f8"),
-    # XPBD compliances (stretch m/N, curvature 1/(N·m³) or distance m/N, clamp 1/(N·m³)) and per-iteration factors
-    ("alpha_s", "f8"), ("alpha_b", "f8"), ("alpha_c", "f8"), ("k_s", "f8"), ("k_b", "f8"), ("k_c", "f8"),
-    ("inv_l0sq", "f8"),  # 1/m²: 1 / rest segment length²
+    # the substep: h (s), gravity (m/s²) (each cable's damping, compliances and factors: CABLE_PARAMS)
+    ("h", "f8"), ("gx", "f8"), ("gy", "f8"), ("gz", "f8"),
     ("omega", "f8"),  # Jacobi relaxation
-    ("radius", "f8"),  # m, the cables' radius
+    ("max_radius", "f8"),  # m, the largest of the cables' radii (the contact queries' reach)
     ("iterations", "i8"), ("substeps", "i8"), ("order", "i8"), ("bending", "i8"),  # ORDER_*, BEND_*
     ("sqrt_approx", "?"), ("direct_all", "?"), ("bandwidth", "i8"),  # the direct order's system
     # the step: dt (s), divergence limits (m from the origin, m/s), the contact query's margin (m) and what gravity
@@ -145,6 +142,21 @@ PARAMS = np.dtype([
     # several cables (the topology fields): whether segments of different cables touch (cable contacts, always on
     # with several cables), and the substeps summed in junction_sum (a step's count: par.substeps)
     ("cable_contact", "?"), ("junction_count", "i8"),
+])
+
+
+#: Each cable's parameters (``SolverState.cable_par``, one record per cable, a row of ``chain_seg``): what the model
+#: makes of its material (:class:`mjcable.solvers.state.Rules`), read once per chain by the sweeps and per row by the
+#: direct solve, so that cables of different radius, segment length, damping, E·A and E·I share one state.
+CABLE_PARAMS = np.dtype([
+    ("radius", "f8"), ("l0", "f8"), ("inv_l0sq", "f8"),  # m, m, 1/m²: radius, rest segment length, 1 / l₀²
+    # XPBD compliances α (stretch m/N, curvature 1/(N·m³) or distance m/N, clamp 1/(N·m³)), the same per substep
+    # α̃ = α / h², and the per-iteration factors k in [0, 1]
+    ("alpha_s", "f8"), ("alpha_b", "f8"), ("alpha_c", "f8"), ("at_s", "f8"), ("at_b", "f8"), ("at_c", "f8"),
+    ("k_s", "f8"), ("k_b", "f8"), ("k_c", "f8"),
+    # segments apart (j − i) from which two of the cable's own segments may touch: their capsules don't overlap at
+    # rest, (j − i − 1) l₀ ≥ 2 r (cable_contact_kernels.self_contacts)
+    ("near", "i8"),
 ])
 
 
@@ -273,6 +285,9 @@ FIELDS = (
     # last particle to the next cable's first is a gap: no constraint, contact or check acts on it)
     ("seg_cable", _I1, "(n,) the cable of each segment (−1: a gap)"),
     ("chain_seg", _I2, "(C, 2) each cable's segments [first, stop)"), ("cable_mu", _F1, "(C,) each cable's Coulomb μ"),
+    ("cable_par", _a(numba.from_dtype(CABLE_PARAMS), 1), "(C,) each cable's parameters (CABLE_PARAMS)"),
+    ("seg_radius", _F1, "(n,) m the radius of each segment's cable (0: a gap)"),
+    ("damp", _F1, "(N,) each particle's cable's damping factor e^{−c h} (1 at a ring's hub)"),
     ("junction_p", _I2, "(J, 2) the particles [a, b] a junction makes one point"),
     ("lam_j", _F2, "(J, 3) kg·m junction multipliers of the substep (the impulse on b · h)"),
     ("junction_sum", _F2, "(J, 3) N Σ of the step's substep forces on b"),
@@ -454,6 +469,11 @@ def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum
 
 
 @_jit
+def _cables(S, cable_par, seg_radius, damp):
+    S.cable_par, S.seg_radius, S.damp = cable_par, seg_radius, damp
+
+
+@_jit
 def _winch_topology(S, winch_pin, winch_cable, winch_dir, winch_end, winch_far, winch_link):
     S.winch_pin, S.winch_cable, S.winch_dir = winch_pin, winch_cable, winch_dir
     S.winch_end, S.winch_far, S.winch_link = winch_end, winch_far, winch_link
@@ -512,6 +532,7 @@ _PARTS = (
     (_welds, ("weld_seg", "weld_r0", "lam_weld")),
     (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p",
                  "cable_load")),
+    (_cables, ("cable_par", "seg_radius", "damp")),
     (_winch_topology, ("winch_pin", "winch_cable", "winch_dir", "winch_end", "winch_far", "winch_link")),
     (_winch_motion, ("winch_at", "winch_u", "winch_len", "winch_speed", "winch_rho", "winch_l0")),
     (_rings, ("ring_p", "ring_pin", "ring_seg", "ring_t", "ring_mode", "ring_mu", "ring_stop", "ring_cable")),

@@ -95,13 +95,14 @@ def contact_depth(S):
     :func:`~mjcable.solvers.contact_kernels.shape_distance`, where the detection's half-space, which holds the convex
     obstacle, says it may be), else (``CHECK_OK``, 0.0, −1); the deepest such."""
     P = S.par[0]
-    x, radius = S.x, P.radius
+    x, seg_radius = S.x, S.seg_radius
     shapes = shapes_of(S)
     con_seg, con_s, con_normal, con_offset, con_shape, con_face = (S.con_seg, S.con_s, S.con_normal, S.con_offset,
                                                                    S.con_shape, S.con_face)
     deepest, seg = 0.0, -1
     for c in range(P.n_con):
         i, s = con_seg[c], con_s[c]
+        radius = seg_radius[i]  # (its cable's)
         px = (1.0 - s) * x[i, 0] + s * x[i + 1, 0]
         py = (1.0 - s) * x[i, 1] + s * x[i + 1, 1]
         pz = (1.0 - s) * x[i, 2] + s * x[i + 1, 2]

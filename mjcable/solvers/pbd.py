@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from mjcable.scene import Scene
 from mjcable.solvers.settings import ParticleSettings, bending_kind
-from mjcable.solvers.state import Rules, shared_cable
+from mjcable.solvers.state import Rules, single_cable
 from mjcable.solvers.user_constraints import UserConstraint, iteration_factor
 
 __all__ = ["rules", "UserConstraint", "iteration_factor", "derived_bend_factor", "IGNORES", "FACTOR_STRETCH"]
@@ -47,7 +47,7 @@ _INTERIOR_BEND_WEIGHT = 6.0  # Σ (1, −2, 1)² of the curvature constraint's g
 
 def derived_bend_factor(scene: Scene, h: float) -> float:
     """The fraction of a curvature violation XPBD's first iteration removes at substep ``h``: W / (W + α̃)."""
-    cable = shared_cable(scene, ("segment_length", "bending_stiffness", "mass per segment"))
+    cable = single_cable(scene)
     l0 = cable.segment_length
     w = cable.n_segments / cable.mass  # interior inverse mass
     weight = _INTERIOR_BEND_WEIGHT * w / l0**4
@@ -57,7 +57,7 @@ def derived_bend_factor(scene: Scene, h: float) -> float:
 
 def bending_rules(model: str, scene: Scene, settings: ParticleSettings, h: float) -> tuple:
     """(bending kind, per-substep bend factor k) for the stiffness-based solvers ``jakobsen`` and ``pbd``."""
-    ei = shared_cable(scene, ("bending_stiffness",)).bending_stiffness
+    ei = single_cable(scene).bending_stiffness
     bending = bending_kind(settings, ei, settings.bend_factor)
     if bending == "curvature":
         if settings.bend_factor is not None:
@@ -75,7 +75,8 @@ def bending_rules(model: str, scene: Scene, settings: ParticleSettings, h: float
 
 
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
-    """PBD's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
+    """PBD's kernel parameters for the cable of the one-cable ``scene`` at substep ``h`` seconds (see the module
+    docstring; several cables: :func:`mjcable.solvers.state.cable_rules`)."""
     n = settings.iterations
     bending, k_bend = bending_rules("pbd", scene, settings, h)
     k_stretch = iteration_factor(settings.stretch_factor, n)

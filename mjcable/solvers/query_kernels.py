@@ -55,7 +55,7 @@ def _take_contact(S, g0, g1, dist, pos, frame, at_particle, count):
     (unchanged for a contact that is not between a capsule and an obstacle, or that repeats one already acting at
     the same particle). ``at_particle`` (N,): the contact already acting at each particle (−1: none)."""
     segment_of_geom, shape_of_geom = S.segment_of_geom, S.shape_of_geom
-    x, radius = S.x, S.par[0].radius
+    x = S.x
     pos_x, pos_y, pos_z = pos
     f0, f1, f2 = frame
     s0 = segment_of_geom[g0]
@@ -66,6 +66,7 @@ def _take_contact(S, g0, g1, dist, pos, frame, at_particle, count):
         i, other, sign = s0, g1, -1.0
     else:
         i, other, sign = s1, g0, 1.0
+    radius = S.seg_radius[i]  # (its cable's)
     nx, ny, nz = sign * f0, sign * f1, sign * f2
     half = 0.5 * dist
     qx, qy, qz = pos_x - half * nx, pos_y - half * ny, pos_z - half * nz
@@ -113,7 +114,7 @@ def flatten_contacts(S, n_con, inset):
     friction cone is the face's, μ Σ Δλₙ about that normal, with no sums of normals to keep
     (:func:`~mjcable.solvers.contact_kernels.contact_sweep`, :func:`~mjcable.solvers.contact_kernels.friction_sweep`;
     a cable lying on a floor or a table)."""
-    x, radius = S.x, S.par[0].radius
+    x, seg_radius = S.x, S.seg_radius
     typ, size, pos, rot, moves = S.shape_type, S.shape_size, S.shape_pos, S.shape_rot, S.shape_moves
     seg, frac, normal, offset, shape, face = S.con_seg, S.con_s, S.con_normal, S.con_offset, S.con_shape, S.con_face
     for c in range(n_con):
@@ -140,7 +141,7 @@ def flatten_contacts(S, n_con, inset):
             continue
         nx, ny, nz = sign * rot[k, 0, axis], sign * rot[k, 1, axis], sign * rot[k, 2, axis]
         normal[c, 0], normal[c, 1], normal[c, 2] = nx, ny, nz
-        offset[c] = nx * pos[k, 0] + ny * pos[k, 1] + nz * pos[k, 2] + half + radius
+        offset[c] = nx * pos[k, 0] + ny * pos[k, 1] + nz * pos[k, 2] + half + seg_radius[seg[c]]
         face[c] = BOX_FACE_FLAT
     sole, unit, push = S.fric_sole, S.fric_unit, S.fric_push
     sole[:] = False

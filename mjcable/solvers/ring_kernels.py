@@ -218,12 +218,11 @@ def _hold_stop(S, r):
 @_jit
 def ring_sweep(S):
     """Project every ring once (after the chains and junctions of an iteration; module docstring)."""
-    P = S.par[0]
-    alpha_tilde, k = P.alpha_s / (P.h * P.h), P.k_s
     for r in range(S.ring_p.shape[0]):
         mode = S.ring_mode[r]
         if mode == RING_SLIDING:
-            _slide(S, r, alpha_tilde, k)
+            cp = S.cable_par[S.ring_cable[r]]  # the stretch of the cable through it
+            _slide(S, r, cp.at_s, cp.k_s)
         elif mode == RING_STOPPED:
             _hold_stop(S, r)
 

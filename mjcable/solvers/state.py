@@ -23,7 +23,9 @@ from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import kernels_layout as layout
 from mjcable.solvers.settings import ParticleSettings
 
-__all__ = ["Rules", "StateArrays", "chain_arrays", "ring_fields", "shared_cable", "topology", "quat_mul", "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
+__all__ = ["Rules", "StateArrays", "cable_rules", "chain_arrays", "ring_fields", "shared_cable", "single_cable",
+           "topology", "quat_mul",
+           "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
 
 ORDER_CODES = {"gauss-seidel": layout.ORDER_GAUSS_SEIDEL, "jacobi": layout.ORDER_JACOBI,
                "direct": layout.ORDER_DIRECT}
@@ -34,7 +36,8 @@ _CONTACT_CAPACITY = 4  # initial obstacle-contact buffers per segment: a cable l
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Rules:
-    """What a model makes of the physical cable: the kernels' parameters.
+    """What a model makes of one physical cable: the kernels' parameters (of several cables, one :class:`Rules` each,
+    :func:`cable_rules`).
 
     Args:
       verlet_start: start like Verlet, the first substep's prediction x₁ = x₀ + h v₀ + ½ g h² (Taylor; free fall
@@ -145,19 +148,32 @@ def _contact_buffers(capacity: int, self_capacity: int) -> dict:
 
 
 #: how a cable's property that the parameter record holds once for all cables is read (:func:`shared_cable`)
-_SHARED = {"radius": lambda c: c.radius, "segment_length": lambda c: c.segment_length, "damping": lambda c: c.damping,
-           "stretch_stiffness": lambda c: c.stretch_stiffness, "bending_stiffness": lambda c: c.bending_stiffness,
-           "mass per segment": lambda c: c.mass / c.n_segments, "friction": lambda c: c.friction,
+_SHARED = {"radius": lambda c: c.radius, "segment_length": lambda c: c.segment_length,
+           "stretch_stiffness": lambda c: c.stretch_stiffness, "friction": lambda c: c.friction,
            # a rod with frames (cosserat): its rows' compliances and its frames' inertia
            "shear stiffness G·A": lambda c: c.shear * c.area, "torsion_stiffness": lambda c: c.torsion_stiffness,
            "bending stiffness E·I₁": lambda c: c.bending_stiffnesses[0],
            "bending stiffness E·I₂": lambda c: c.bending_stiffnesses[1]}
 _SAME = 1e-12  # relative: two cables' properties this close count as one
+_ROUND_OFF = 1e-9  # relative: a radius equal to half a segment up to this does not overlap its neighbours
 
 
-def shared_cable(scene: Scene, properties: tuple) -> CableSpec:
-    """``scene``'s first cable, standing for all of them in the particle solvers' parameters: each of
-    ``properties`` (names of :data:`_SHARED`) is held once for all cables.
+def single_cable(scene: Scene) -> CableSpec:
+    """The cable of a one-cable ``scene``, whose rules a model derives (:func:`cable_rules` gives each cable of a
+    scene its own).
+
+    Raises:
+      ValueError: ``scene`` holds several cables."""
+    if len(scene.cables) != 1:
+        raise ValueError(f"a point chain's rules are those of one cable, got a scene of {len(scene.cables)} cables; "
+                         f"take each cable's with mjcable.solvers.state.cable_rules")
+    return scene.cables[0]
+
+
+def shared_cable(scene: Scene, properties: tuple, holder: str = "the particle solvers") -> CableSpec:
+    """``scene``'s first cable, standing for all of them where ``holder`` (named in the message) keeps each of
+    ``properties`` (names of :data:`_SHARED`) once for all cables: a rod with frames (``cosserat``), or the
+    friction a user world's geoms take.
 
     Raises:
       ValueError: two cables differ in one of ``properties`` (named, with both values)."""
@@ -170,9 +186,50 @@ def shared_cable(scene: Scene, properties: tuple) -> CableSpec:
             other = get(cable)
             if (value is None) != (other is None) or (value is not None and not math.isclose(
                     value, other, rel_tol=_SAME, abs_tol=0.0)):
-                raise ValueError(f"cables[{k}]: the particle solvers hold one {name} for all cables, got {other!r} "
-                                 f"against cables[0]'s {value!r}; give every cable the same {name}")
+                raise ValueError(f"cables[{k}]: {holder} hold{'' if holder.endswith('s') else 's'} one {name} for "
+                                 f"all cables, got {other!r} against cables[0]'s {value!r}; give every cable the "
+                                 f"same {name}")
     return first
+
+
+#: the fields of :class:`Rules` that one state holds once for all of its cables (:func:`cable_rules`)
+_ONE_FOR_ALL = ("verlet_start", "bending", "sqrt_approx", "direct_bending", "geometric_stiffness", "rod_limp")
+
+
+def cable_rules(rules, scene: Scene, settings: ParticleSettings, h: float) -> tuple:
+    """One :class:`Rules` per cable of ``scene``: ``rules(scene, settings, h)`` (a model's rules) of each cable alone
+    (:meth:`~mjcable.scene.Scene.cable_scene`), so that cables of different radius, segment length, damping, E·A
+    and E·I each get their own compliances and factors. A rod with frames (``rod_compliance``) holds one set for
+    all cables: its rules of the whole scene, once per cable.
+
+    Raises:
+      ValueError: two cables whose rules differ in what the state holds once (:data:`_ONE_FOR_ALL`: e.g. one cable
+        with bending stiffness and one without), naming both; or the model's own (a rod's cables that differ)."""
+    one = tuple(rules(scene.cable_scene(c), settings, h) for c in range(len(scene.cables)))
+    if one[0].rod_compliance is not None:
+        return (rules(scene, settings, h),) * len(one)
+    for k, r in enumerate(one[1:], start=1):
+        for name in _ONE_FOR_ALL:
+            mine, first = getattr(r, name), getattr(one[0], name)
+            if mine != first:
+                raise ValueError(f"cables[{k}]: the particle solvers hold one {name} for all cables, got {mine!r} "
+                                 f"against cables[0]'s {first!r}; give every cable bending stiffness (young > 0) "
+                                 f"or none, or set the solver's bending for all")
+    return one
+
+
+def _cable_params(scene: Scene, rules: tuple, h: float) -> np.ndarray:
+    """``(C,)`` :data:`~mjcable.solvers.kernels_layout.CABLE_PARAMS` of ``scene``'s cables from their ``rules``
+    (one :class:`Rules` each) at substep ``h`` seconds."""
+    out = np.zeros(len(scene.cables), dtype=layout.CABLE_PARAMS)
+    h2 = h * h
+    for c, (cable, r) in enumerate(zip(scene.cables, rules)):
+        l0 = cable.segment_length
+        near = int(math.ceil(2.0 * cable.radius / l0 * (1.0 - _ROUND_OFF))) + 1
+        out[c] = (cable.radius, l0, 1.0 / l0**2, r.alpha_stretch, r.alpha_bend, r.alpha_clamp,
+                  r.alpha_stretch / h2, r.alpha_bend / h2, r.alpha_clamp / h2, r.k_stretch, r.k_bend, r.k_clamp,
+                  max(near, 2))
+    return out
 
 
 def topology(scene: Scene, *, frames: bool = False) -> dict:
@@ -216,7 +273,7 @@ def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
     return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
 
 
-def ring_fields(scene: Scene, segment_length: float) -> dict:
+def ring_fields(scene: Scene) -> dict:
     """The state's ring fields of ``scene``'s rings (:data:`~mjcable.solvers.kernels_layout.FIELDS`,
     :mod:`mjcable.solvers.ring_kernels`), as they start: each ring on the segment of its cable that crosses its plane
     nearest its centre, the anchor where the segment passes it, its hub the particle ``scene.n_particles + k``, its
@@ -253,19 +310,20 @@ def ring_fields(scene: Scene, segment_length: float) -> dict:
                 ring_dir=pulls)
 
 
-def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: float) -> StateArrays:
+def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: float) -> StateArrays:
     """The solver state of ``scene`` at rest in its start shape: every field, those of the contact query and of a
     user world's host empty (the backend fills them in).
 
     Args:
       scene: the scene.
-      rules: the model's parameters (see :class:`Rules`).
+      rules: the model's parameters, one :class:`Rules` per cable (:func:`cable_rules`).
       settings: validated solver settings.
       dt: the simulator's step in seconds; the substep is ``h = dt / settings.substeps``.
     """
-    cable = shared_cable(scene, ("radius", "segment_length", "damping"))
-    topo = topology(scene, frames=rules.rod_compliance is not None)
-    rings = ring_fields(scene, cable.segment_length)
+    cables = scene.cables
+    first = rules[0]  # what the state holds once for all cables (cable_rules checked that they agree)
+    topo = topology(scene, frames=first.rod_compliance is not None)
+    rings = ring_fields(scene)
     hubs = rings.pop("centres")
     topo["seg_cable"] = np.concatenate([topo["seg_cable"], np.full(len(hubs), -1, dtype=np.int64)])
     link = topo["seg_cable"] >= 0
@@ -288,20 +346,24 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         clamp_dir[kc] = _perpendiculars(axis / np.linalg.norm(axis))
     v = np.zeros_like(x)  # at rest: Verlet's start is the first substep's prediction (par.verlet_start)
     n = n_particles - 1
-    l0 = cable.segment_length
+    cable_par = _cable_params(scene, rules, h)
+    l0 = np.where(link, cable_par["l0"][np.maximum(topo["seg_cable"], 0)], math.inf)  # (n,) m, inf in the gaps
+    damp = np.ones(n_particles)  # (a ring's hub is held: its damping is never used)
+    for cable, part in zip(cables, scene.cable_slices):
+        damp[part] = math.exp(-cable.damping * h)
     no_clamps = np.zeros((0, 2), dtype=np.int64)
-    if settings.order == "direct" and rules.direct_bending:
-        rows = _direct_rows(link, rules.bending, clamp_pq)
+    if settings.order == "direct" and first.direct_bending:
+        rows = _direct_rows(link, first.bending, clamp_pq)
     elif settings.order == "direct":
         rows = _direct_rows(link, "none", no_clamps)
     else:
         rows = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
-    geometric = settings.order == "direct" and rules.geometric_stiffness
+    geometric = settings.order == "direct" and first.geometric_stiffness
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
     gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
-        gs = _direct_rows(link, rules.bending if rules.direct_bending else "none",
-                          clamp_pq if rules.direct_bending else no_clamps, transverse=True)
+        gs = _direct_rows(link, first.bending if first.direct_bending else "none",
+                          clamp_pq if first.direct_bending else no_clamps, transverse=True)
     else:
         gs = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
     rows.update({f"gs_{name}": value for name, value in gs.items()})
@@ -310,19 +372,18 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     P = par[0]
     gravity = np.asarray(scene.gravity, dtype=np.float64)
     for name, value in dict(
-            h=h, damp=math.exp(-cable.damping * h), gx=gravity[0], gy=gravity[1], gz=gravity[2],
-            alpha_s=rules.alpha_stretch, alpha_b=rules.alpha_bend, alpha_c=rules.alpha_clamp, k_s=rules.k_stretch,
-            k_b=rules.k_bend, k_c=rules.k_clamp, inv_l0sq=1.0 / l0**2, omega=settings.omega, radius=cable.radius,
+            h=h, gx=gravity[0], gy=gravity[1], gz=gravity[2], omega=settings.omega,
+            max_radius=max(cable.radius for cable in cables),
             cable_contact=len(scene.cables) > 1, junction_count=0, iterations=settings.iterations,
             substeps=settings.substeps,
-            order=ORDER_CODES[settings.order], bending=BENDING_CODES[rules.bending], sqrt_approx=rules.sqrt_approx,
-            direct_all=rules.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
+            order=ORDER_CODES[settings.order], bending=BENDING_CODES[first.bending], sqrt_approx=first.sqrt_approx,
+            direct_all=first.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
             gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, gs_chain=gs_chain, direct_solves=0,
             max_distance=math.inf, max_speed=math.inf, strain_fail=math.inf, strain_warn=math.inf, tear=math.inf,
             check_where=-1, warn_where=-1, warn_step=-1, contact_margin=settings.contact_margin,
             fall=0.5 * float(np.linalg.norm(gravity)) * dt**2, self_collision=bool(settings.self_collision),
             query=layout.QUERY_NONE, query_margin=-math.inf, query_slack=settings.query_slack, warning=-1,
-            verlet_start=rules.verlet_start,
+            verlet_start=first.verlet_start,
             impact_speed=layout.IMPACT_SPEED, impact_iterations=layout.IMPACT_ITERATIONS,
             impact_tol=layout.IMPACT_TOLERANCE * h).items():
         P[name] = value
@@ -330,8 +391,10 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
     a = StateArrays(
         x=x, v=v, x0=x.copy(), w=w, mass=mass, react=np.zeros_like(x), dx=np.zeros_like(x),
         relax=np.zeros(n_particles), prev=x.copy(), query_x=x.copy(),
-        rest=np.where(link, l0, math.inf) * rings.pop("sign"), lam_s=np.zeros(n), lam_gs=np.zeros(n),
-        rest_d=np.where(link[:-1] & link[1:], 2.0 * l0, math.inf), lam_d=np.zeros(max(n - 1, 0)),
+        rest=l0 * rings.pop("sign"), lam_s=np.zeros(n), lam_gs=np.zeros(n),
+        rest_d=np.where(link[:-1] & link[1:], 2.0 * l0[:-1], math.inf), lam_d=np.zeros(max(n - 1, 0)),
+        cable_par=cable_par, seg_radius=np.where(link, cable_par["radius"][np.maximum(topo["seg_cable"], 0)], 0.0),
+        damp=damp,
         lam_b=np.zeros((max(n - 1, 0), 3)),
         clamp_pq=clamp_pq, clamp_pin=np.array(clamps, dtype=np.int64), clamp_dir=clamp_dir,
         lam_c=np.zeros((len(clamps), 2)), clamp_react=np.zeros((len(clamps), 3)),
@@ -350,12 +413,12 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         if name not in a:
             a[name] = np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype)))
     a["start_from"], a["start_to"], a["target"] = (np.zeros((n_pins, 3)) for _ in range(3))
-    if rules.rod_compliance is not None:
-        a.update(_rod_arrays(scene, clamps, welds=settings.order == "direct" and not rules.rod_limp))
+    if first.rod_compliance is not None:
+        a.update(_rod_arrays(scene, clamps, welds=settings.order == "direct" and not first.rod_limp))
         for name, value in zip(("ss_alpha1", "ss_alpha2", "ss_alpha3", "bt_alpha1", "bt_alpha2", "bt_alpha3"),
-                               rules.rod_compliance):
+                               first.rod_compliance):
             P[name] = value
-        P["rod_limp"] = rules.rod_limp
+        P["rod_limp"] = first.rod_limp
     return a
 
 

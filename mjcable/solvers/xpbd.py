@@ -22,15 +22,16 @@ from __future__ import annotations
 
 from mjcable.scene import Scene
 from mjcable.solvers.settings import ParticleSettings, bending_kind
-from mjcable.solvers.state import Rules, shared_cable
+from mjcable.solvers.state import Rules, single_cable
 
 __all__ = ["rules"]
 
 
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
-    """XPBD's kernel parameters for ``scene`` at substep ``h`` seconds (see the module docstring)."""
+    """XPBD's kernel parameters for the cable of the one-cable ``scene`` at substep ``h`` seconds (see the module
+    docstring; several cables: :func:`mjcable.solvers.state.cable_rules`)."""
     del h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
-    cable = shared_cable(scene, ("segment_length", "stretch_stiffness", "bending_stiffness"))
+    cable = single_cable(scene)
     l0 = cable.segment_length
     ei = cable.bending_stiffness
     if settings.stretch_compliance is not None:

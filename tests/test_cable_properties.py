@@ -1,0 +1,133 @@
+"""Cables of different radius, segment length, mass per length, damping, E·A and E·I in one particle-solver state
+(issue 22): each cable's contacts, stretch, bending and statics are its own, against physics and independent
+references."""
+
+import numpy as np
+import pytest
+from scipy import optimize
+
+import mjcable
+from mjcable import geometry, reference
+
+G = 9.81
+PARTICLE = ("jakobsen", "pbd", "xpbd")
+SETTLED = {"jakobsen": {"iterations": 50}, "pbd": {"iterations": 50}, "xpbd": {}}  # converged statics
+CONTACT_TOLERANCE = 3e-4  # m: a resting contact's distance from the sum of the radii (penetration and round-off)
+
+
+def _quick_first(models):
+    """``models`` as parameters, all but the first slow."""
+    return [m if k == 0 else pytest.param(m, marks=pytest.mark.slow) for k, m in enumerate(models)]
+
+
+@pytest.mark.parametrize("model", _quick_first(("xpbd", "pbd", "jakobsen")))
+def test_a_thick_cable_rests_on_a_thin_one_at_the_sum_of_their_radii(model):
+    """A thick cable (r = 12 mm) draped across a thin one (r = 3 mm) held at every particle: their centrelines rest
+    r₁ + r₂ apart (not 2 r of either)."""
+    r_thin, r_thick = 0.003, 0.012
+    thin = mjcable.CableSpec([[-0.3, 0.0, 1.0], [0.3, 0.0, 1.0]], 20, r_thin, 0.02, friction=0.5)
+    top = 1.0 + r_thin + r_thick + 0.002
+    thick = mjcable.CableSpec([[0.0, -0.3, 0.95], [0.0, 0.0, top], [0.0, 0.3, 0.95]], 24, r_thick, 0.1,
+                              damping=20.0, friction=0.5)
+    pins = tuple(mjcable.Pin(k) for k in range(21)) + (mjcable.Pin(0, cable=1), mjcable.Pin(-1, cable=1))
+    scene = mjcable.Scene((thin, thick), pins)
+    sim = mjcable.Simulator(scene, model)
+    sim.step(1.0)
+    a, b = (sim.positions[part] for part in scene.cable_slices)
+    closest = float(geometry.segment_distances(b, a).min())
+    assert closest == pytest.approx(r_thin + r_thick, abs=CONTACT_TOLERANCE)
+    assert b[:, 2].max() < top - 0.001  # it came down onto the thin one (and rests there)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", PARTICLE)
+def test_cables_of_different_radius_rest_on_a_floor_at_their_own_radius(model):
+    """Two cables side by side dropped onto a floor: each one's centreline rests at its own radius."""
+    radii = (0.004, 0.015)
+    cables = tuple(mjcable.CableSpec([[-0.3, y, r + 0.01], [0.3, y, r + 0.01]], 20, r, 0.05, damping=10.0)
+                   for y, r in zip((0.0, 0.1), radii))
+    scene = mjcable.Scene(cables, obstacles=(mjcable.Floor(),))
+    sim = mjcable.Simulator(scene, model)
+    sim.step(1.0)
+    for r, part in zip(radii, scene.cable_slices):
+        np.testing.assert_allclose(sim.positions[part][:, 2], r, atol=CONTACT_TOLERANCE)
+
+
+def _leg(start, end, length, n, radius, mass, **fields):
+    """A cable of ``length`` metres and ``n`` segments from ``start`` to ``end`` through a lowered midpoint, the sag
+    found so that its chords add up to ``length`` (so that the reference's legs have the cable's length)."""
+    p0, p1 = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    mid = 0.5 * (p0 + p1)
+
+    def make(depth):
+        return mjcable.CableSpec([p0, mid - [0.0, 0.0, depth], p1], n, radius, mass, **fields)
+
+    depth = optimize.brentq(lambda d: make(d).segment_length * n - length, 1e-4, length, xtol=1e-14)
+    return make(depth)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", PARTICLE)
+def test_a_harness_of_different_legs_settles_on_the_reference(model):
+    """A Y-harness of a thick heavy trunk and two thin light legs (radii 8, 3 and 5 mm, 0.1, 0.02 and 0.05 kg/m,
+    30, 24 and 40 segments, different damping; for ``xpbd`` E·A of 5e4, 2e4 and 1e5 N), their free ends pinned at
+    different heights: the particles within 1 mm of the discrete three-leg reference of those masses and segments
+    (:func:`mjcable.reference_harness.y_harness`), the pins carrying the harness' weight within 1 %."""
+    from mjcable.reference_harness import y_harness
+
+    junction = [0.0, 0.05, 0.6]
+    ends = [[-0.4, 0.0, 1.0], [0.4, 0.0, 0.9], [0.0, 0.45, 0.8]]
+    shape = dict(n=(30, 24, 40), radius=(0.008, 0.003, 0.005), mass=(0.06, 0.012, 0.03), damping=(20.0, 10.0, 30.0),
+                 stretch_stiffness=(5e4, 2e4, 1e5))
+    cables = []
+    for k, end in enumerate(ends):
+        extra = dict(stretch_stiffness=shape["stretch_stiffness"][k]) if model == "xpbd" else {}
+        cables.append(_leg(end, junction, 0.6, shape["n"][k], shape["radius"][k], shape["mass"][k],
+                           damping=shape["damping"][k], **extra))
+    scene = mjcable.Scene(tuple(cables), tuple(mjcable.Pin(0, cable=k) for k in range(3)),
+                          junctions=(mjcable.Junction((0, -1), (1, -1)), mjcable.Junction((0, -1), (2, -1))))
+    sim = mjcable.Simulator(scene, model, **SETTLED[model])
+    sim.step(3.0)
+    ref = y_harness(ends, [0.6] * 3, list(shape["mass"]), list(shape["n"]))
+    x = sim.positions
+    for part, leg in zip(scene.cable_slices, ref.legs):  # a leg runs from the junction to its pin
+        assert np.max(np.linalg.norm(x[part][::-1] - leg, axis=1)) < 1e-3
+    weight = sum(shape["mass"]) * G
+    np.testing.assert_allclose(sim.pin_forces.sum(axis=0), [0.0, 0.0, weight], atol=0.01 * weight)
+
+
+@pytest.mark.slow
+def test_a_stiff_and_a_soft_cable_under_one_load_stretch_by_their_own_tension_over_ea():
+    """Two hanging cables of one mass and length, E·A = 2000 N and 200 N, side by side in one ``xpbd`` state (the
+    direct order: the stated stiffness): each segment stretches by its tension over its own E·A, T l₀ / E·A, T the
+    weight of the particles below it."""
+    stiffness = (2000.0, 200.0)
+    n, mass = 20, 0.5
+    cables = tuple(mjcable.CableSpec([[y, 0.0, 1.0], [y, 0.0, 0.0]], n, 0.005, mass, stretch_stiffness=ea,
+                                     damping=20.0) for y, ea in zip((0.0, 0.2), stiffness))
+    scene = mjcable.Scene(cables, (mjcable.Pin(0), mjcable.Pin(0, cable=1)))
+    sim = mjcable.Simulator(scene, "xpbd", order="direct")
+    sim.step(3.0)
+    for cab, ea, part in zip(cables, stiffness, scene.cable_slices):
+        below = np.cumsum(cab.particle_masses[::-1])[::-1][1:] * G  # (n,) N: the weight below each segment
+        stretch = np.linalg.norm(np.diff(sim.positions[part], axis=0), axis=1) - cab.segment_length
+        np.testing.assert_allclose(stretch, below * cab.segment_length / ea, rtol=1e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", PARTICLE)
+def test_two_cantilevers_of_different_bending_stiffness_droop_as_the_heavy_elastica(model):
+    """Two clamped cantilevers side by side in one state, E·I 4.1 and 1.0 (radii 5 and 4 mm, segments of 12.5 and
+    10 mm, masses per length 40 and 30 g/m, each its own E·I from E): each tip droops as the heavy elastica of its
+    own E·I and weight (:func:`mjcable.reference.cantilever`) within 3 %; ``pbd`` and ``jakobsen`` derive their
+    bend factors from each cable's E·I, segment and mass."""
+    specs = ((0.5, 40, 0.005, 0.02, 6e8, 0.0), (0.4, 40, 0.004, 0.012, 3.5e8, 0.2))
+    cables = tuple(mjcable.CableSpec([[0.0, y, 1.0], [length, y, 1.0]], n, r, m, young=e, damping=20.0)
+                   for length, n, r, m, e, y in specs)
+    scene = mjcable.Scene(cables, (mjcable.Pin(0, clamp=True), mjcable.Pin(0, clamp=True, cable=1)))
+    sim = mjcable.Simulator(scene, model, **({"order": "direct"} if model == "xpbd" else {"iterations": 50}))
+    sim.step(2.0)
+    for cab, (length, *_), part in zip(cables, specs, scene.cable_slices):
+        droop = 1.0 - sim.positions[part][-1, 2]
+        expected = -reference.cantilever(length, cab.mass * G / length, cab.bending_stiffness).z[-1]
+        assert droop == pytest.approx(expected, rel=0.03)
