@@ -325,21 +325,22 @@ CAPSTAN_RADIUS = 0.015  # m, both cables: R_c = 0.03 m, the peg's R_c in mjcable
 TAUT_SEGMENTS = 21  # the taut cable's (an odd count: the rope lies over a segment's middle)
 
 
-def _rope_over_cable(factor: float, *, held: bool = False) -> mjcable.Scene:
-    """The capstan's rope (legs at ``factor`` times the heavy-rope law's ratio) over a horizontal cable of the same
-    radius and segment length along y through the peg's axis, pinned straight (taut) at both ends, or with ``held``
-    at every particle."""
-    rope = contact.capstan_scene(factor, mu=CAPSTAN_MU, peg_radius=CAPSTAN_RADIUS, radius=CAPSTAN_RADIUS).cable
+def _rope_over_cable(factor: float, *, held: bool = False, taut_radius: float = CAPSTAN_RADIUS) -> mjcable.Scene:
+    """The capstan's rope (legs at ``factor`` times the heavy-rope law's ratio, R_c = rope's radius + ``taut_radius``)
+    over a horizontal cable of radius ``taut_radius`` and the rope's segment length along y through the peg's axis,
+    pinned straight (taut) at both ends, or with ``held`` at every particle."""
+    rope = contact.capstan_scene(factor, mu=CAPSTAN_MU, peg_radius=taut_radius, radius=CAPSTAN_RADIUS).cable
     span = TAUT_SEGMENTS * rope.segment_length
-    taut = mjcable.CableSpec([[0.0, -span / 2, 0.0], [0.0, span / 2, 0.0]], TAUT_SEGMENTS, CAPSTAN_RADIUS,
+    taut = mjcable.CableSpec([[0.0, -span / 2, 0.0], [0.0, span / 2, 0.0]], TAUT_SEGMENTS, taut_radius,
                              contact.LINEAR_DENSITY * span, damping=contact.CAPSTAN_DAMPING, friction=CAPSTAN_MU)
     pins = range(TAUT_SEGMENTS + 1) if held else (0, -1)
     return mjcable.Scene((rope, taut), tuple(mjcable.Pin(k, cable=1) for k in pins), name="rope over cable")
 
 
-def _slide_speed(model: str, dt: float, factor: float, *, held: bool = False, **settings) -> float:
+def _slide_speed(model: str, dt: float, factor: float, *, held: bool = False, taut_radius: float = CAPSTAN_RADIUS,
+                 **settings) -> float:
     """The rope's long end's mean speed (m/s) relative to the taut cable's middle over seconds 1 to 3."""
-    scene = _rope_over_cable(factor, held=held)
+    scene = _rope_over_cable(factor, held=held, taut_radius=taut_radius)
     rope, taut = scene.cable_slices
     middle = (taut.start + taut.stop) // 2
     sim = mjcable.Simulator(scene, model, dt=dt, **settings)
@@ -364,6 +365,16 @@ def test_rope_over_a_taut_cable_obeys_the_heavy_capstan_law(model, dt, settings)
     100 mm/s) at 1.15 e^{μπ}."""
     assert _slide_speed(model, dt, 0.85, **settings) < contact.HOLD_SPEED
     assert _slide_speed(model, dt, 1.15, **settings) > contact.SLIDE_SPEED
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model, settings", [("xpbd", {}), ("pbd", dict(order="direct"))])
+def test_rope_over_a_thinner_taut_cable_obeys_the_capstan_law_with_the_sum_of_the_radii(model, settings):
+    """The rope (r = 15 mm) over a taut cable of a third of its radius (5 mm): held at 0.85 and sliding at 1.15 of
+    the heavy-rope ratio with R_c = r₁ + r₂ = 20 mm (each cable's own radius in their contacts)."""
+    thin = CAPSTAN_RADIUS / 3.0
+    assert _slide_speed(model, 0.002, 0.85, taut_radius=thin, **settings) < contact.HOLD_SPEED
+    assert _slide_speed(model, 0.002, 1.15, taut_radius=thin, **settings) > contact.SLIDE_SPEED
 
 
 @pytest.mark.parametrize("model", ["pbd", pytest.param("jakobsen", marks=pytest.mark.slow),

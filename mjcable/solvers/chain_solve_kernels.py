@@ -64,16 +64,17 @@ def _chain_geometric_solve(S):
     backward pass fᵢ = Eᵢ (yᵢ + w_{i+1} fᵢ₊₁) moves the particles (a held one's share goes to its reaction). A chord
     step with the same factors follows where :func:`_chord_rhs`'s rule takes one."""
     x, w, rest, lam_s, lam_gs, blk = S.x, S.w, S.rest, S.lam_s, S.lam_gs, S.gs_blocks
+    seg_cable, cables = S.seg_cable, S.cable_par
     reg = 1.0 + _DIRECT_REGULARIZATION
     rho = 0.0
     e00 = e11 = e22 = e01 = e02 = e12 = 0.0  # E of the previous segment
     y0 = y1 = y2 = 0.0
     for i in range(rest.shape[0]):
-        if S.seg_cable[i] < 0:  # a gap between two cables: no impulse (f = 0), the next chain starts afresh
+        if seg_cable[i] < 0:  # a gap between two cables: no impulse (f = 0), the next chain starts afresh
             e00 = e11 = e22 = e01 = e02 = e12 = y0 = y1 = y2 = 0.0
             blk[i, :] = 0.0
             continue
-        alpha_s_t = S.cable_par[S.seg_cable[i]].at_s  # (its cable's)
+        alpha_s_t = cables[seg_cable[i]].at_s  # (its cable's)
         dx, dy, dz = x[i, 0] - x[i + 1, 0], x[i, 1] - x[i + 1, 1], x[i, 2] - x[i + 1, 2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         lam = lam_s[i]
@@ -164,14 +165,15 @@ def _chain_chord_forward(S):
     (−C − α̃ λ of the stretch rows at the new x, 0 between held particles) along the factors' directions, forward
     substituted into ``gs_blocks``. Returns its ρ = max |C + α̃ λ| / rest."""
     x, w, rest, lam_s, blk = S.x, S.w, S.rest, S.lam_s, S.gs_blocks
+    seg_cable, cables = S.seg_cable, S.cable_par
     rho = 0.0
     y0 = y1 = y2 = 0.0
     for i in range(rest.shape[0]):
         r = 0.0
         wi = w[i]
-        if S.seg_cable[i] >= 0 and (wi != 0.0 or w[i + 1] != 0.0):
+        if seg_cable[i] >= 0 and (wi != 0.0 or w[i + 1] != 0.0):
             dx, dy, dz = x[i, 0] - x[i + 1, 0], x[i, 1] - x[i + 1, 1], x[i, 2] - x[i + 1, 2]
-            r = -(math.sqrt(dx * dx + dy * dy + dz * dz) - rest[i]) - S.cable_par[S.seg_cable[i]].at_s * lam_s[i]
+            r = -(math.sqrt(dx * dx + dy * dy + dz * dz) - rest[i]) - cables[seg_cable[i]].at_s * lam_s[i]
             rho = max(rho, abs(r) / rest[i])
         if i > 0:
             e00, e11, e22, e01, e02, e12 = blk[i - 1, 3], blk[i - 1, 4], blk[i - 1, 5], blk[i - 1, 6], \

@@ -286,14 +286,14 @@ def clamp_sweep(S, out, relax):
     Σ w |∇C|², scale² (d_m × e)ᵀ W (d_m × e)), so that the body feels the clamp's moment. l₀, α̃ and k are the
     clamped cable's (``cable_par``). ``relax`` non-empty: Jacobi's :func:`share` of each row, for its particles and
     its body alike."""
-    x, w, react, lam = S.x, S.w, S.react, S.lam_c
+    x, w, react, lam, cables, seg_cable = S.x, S.w, S.react, S.lam_c, S.cable_par, S.seg_cable
     clamp_pq, clamp_pin, pin_active, clamp_dir = S.clamp_pq, S.clamp_pin, S.pin_active, S.clamp_dir
     for kc in range(clamp_pq.shape[0]):
         if not pin_active[clamp_pin[kc]]:
             continue
         p = clamp_pq[kc, 0]
         q = clamp_pq[kc, 1]
-        cp = S.cable_par[S.seg_cable[min(p, q)]]
+        cp = cables[seg_cable[min(p, q)]]
         scale, alpha_tilde, k = 2.0 * cp.inv_l0sq, cp.at_c, cp.k_c
         wp = w[p]
         wq = w[q]

@@ -104,26 +104,11 @@ def _in_gap(seg_cable, kind, idx):
 
 
 @_inline
-def _row_cable(S, kind, idx):
-    """The cable (a row of ``cable_par``) of row ``idx`` of kind ``kind``: its segment's (a clamp's, the segment
-    between its two particles; a row in a gap, which is skipped: the first cable's)."""
-    if kind == ROW_CLAMP:
-        seg = min(S.clamp_pq[idx // 2, 0], S.clamp_pq[idx // 2, 1])
-    elif kind == ROW_CURVATURE:
-        seg = idx // 3
-    elif kind == ROW_TRANSVERSE:
-        seg = idx // 2
-    else:
-        seg = idx
-    return max(S.seg_cable[seg], 0)
-
-
-@_inline
 def _direct_residuals(S, rows):
     """Linearise every row of ``rows`` (``row_kind``, ``row_idx``, ``row_p``, ``prow``, ``pslot``, ``band``,
-    ``grad``, ``rhs`` of the state, or their ``gs_`` twins) at the current x: ∇C into ``grad``, −C − α̃ λ into
-    ``rhs`` and α̃ into ``band[:, 0]`` (the rest of ``band`` zeroed), each row's α̃ and l₀ its cable's
-    (``cable_par``). Returns ρ = max |C + α̃ λ| / rest over the distance rows.
+    ``grad``, ``rhs``, ``row_cable`` of the state, or their ``gs_`` twins) at the current x: ∇C into ``grad``,
+    −C − α̃ λ into ``rhs`` and α̃ into ``band[:, 0]`` (the rest of ``band`` zeroed), each row's α̃ and l₀ its
+    cable's (``cable_par``). Returns ρ = max |C + α̃ λ| / rest over the distance rows.
 
     A transverse row (ROW_TRANSVERSE, two per stretch row i of tension T = −λ / h² in ``lam_gs``) is the stretch
     row's geometric stiffness −λ ∇²C = −λ (I − n nᵀ) / |d| (on the blocks [[1, −1], [−1, 1]]) written as a compliant
@@ -133,7 +118,7 @@ def _direct_residuals(S, rows):
     while the system keeps the Schur form (J W Jᵀ + α̃) Δλ = rhs over the extended rows, banded. A compressed row
     (λ ≥ 0) has none (its rows are left out: M̃ stays positive definite)."""
     x, w = S.x, S.w
-    row_kind, row_idx, row_p, _, _, band, grad, rhs = rows
+    row_kind, row_idx, row_p, _, _, band, grad, rhs, row_cable = rows
     lam_gs = S.lam_gs
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
     rest, rest_d = S.rest, S.rest_d
@@ -142,7 +127,7 @@ def _direct_residuals(S, rows):
     band[:] = 0.0
     grad[:] = 0.0
     rho = 0.0
-    seg_cable, spools = S.seg_cable, S.winch_pin.shape[0] > 0
+    seg_cable, spools, cables = S.seg_cable, S.winch_pin.shape[0] > 0, S.cable_par
     for r in range(nrow):  # C, ∇C and α̃ of every row
         kind = row_kind[r]
         idx = row_idx[r]
@@ -151,7 +136,7 @@ def _direct_residuals(S, rows):
             continue
         cval = 0.0
         lam = 0.0
-        cp = S.cable_par[_row_cable(S, kind, idx)]
+        cp = cables[row_cable[r]]
         at = cp.at_b
         if kind == ROW_STRETCH or kind == ROW_DISTANCE:
             i, j = row_p[r, 0], row_p[r, 1]
@@ -215,7 +200,7 @@ def _direct_residuals(S, rows):
 def _schur_assemble(S, rows):
     """J W Jᵀ + α̃ into ``rows``' band ([M16] Eq. 18 for all rows at once), after :func:`_direct_residuals`."""
     x, w = S.x, S.w
-    row_kind, row_idx, row_p, prow, pslot, band, grad, rhs = rows
+    row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, row_cable = rows
     nrow = rhs.shape[0]
     for p in range(x.shape[0]):  # J W Jᵀ, particle by particle
         wp = w[p]
@@ -238,7 +223,7 @@ def _schur_assemble(S, rows):
     for r in range(nrow if S.clamp_pq.shape[0] else 0):  # (a chain without clamps has no clamp rows)
         kc = row_idx[r] // 2  # a body clamp's rows: its body's turn, scale² (d_a × e)ᵀ W (d_b × e), m = 1 after 0
         if row_kind[r] == ROW_CLAMP and turns_body(S, kc) and S.pin_active[S.clamp_pin[kc]]:
-            inv_l0sq = S.cable_par[_row_cable(S, ROW_CLAMP, row_idx[r])].inv_l0sq
+            inv_l0sq = S.cable_par[row_cable[r]].inv_l0sq
             scale2 = 4.0 * inv_l0sq * inv_l0sq
             m, p, q = row_idx[r] % 2, row_p[r, 0], row_p[r, 1]
             e0, e1, e2 = x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2]
@@ -260,22 +245,23 @@ def _direct_apply(S, rows, unit):
     (and adds to a held one's reaction: its share of the geometric stiffness, the turn of the stretch row's force
     over the step) but is no multiplier of its own."""
     x, w, react = S.x, S.w, S.react
-    row_kind, row_idx, row_p, _, _, _, grad, rhs = rows
+    row_kind, row_idx, row_p, _, _, _, grad, rhs, row_cable = rows
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
     for r in range(rhs.shape[0] if S.clamp_pq.shape[0] else 0):  # (a chain without clamps has no clamp rows)
         # a body clamp's share, τ = ∇_θ C Δλ at the linearisation's x: its body turns
         if row_kind[r] == ROW_CLAMP and rhs[r] != 0.0 and turns_body(S, row_idx[r] // 2):
             p, q = row_p[r, 0], row_p[r, 1]
-            cp = S.cable_par[_row_cable(S, ROW_CLAMP, row_idx[r])]
+            cp = S.cable_par[row_cable[r]]
             k_c = 1.0 if unit else cp.k_c
             body_clamp_turn(S, row_idx[r] // 2, row_idx[r] % 2, 2.0 * cp.inv_l0sq * k_c * rhs[r],
                             x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2])
+    cables = S.cable_par
     for r in range(rhs.shape[0]):
         kind = row_kind[r]
         idx = row_idx[r]
         k_s = k_b = k_c = 1.0
         if not unit:
-            cp = S.cable_par[_row_cable(S, kind, idx)]
+            cp = cables[row_cable[r]]
             k_s, k_b, k_c = cp.k_s, cp.k_b, cp.k_c
         if kind == ROW_STRETCH:
             dlam = k_s * rhs[r]
@@ -330,7 +316,9 @@ def _chord_rhs(S, rows):
     ``_DIRECT_RESIDUAL_FLOOR``), where it converges; beyond it (a yank) the safeguard of :func:`direct_solve`
     decides."""
     x, w = S.x, S.w
-    row_kind, row_idx, row_p, _, _, _, _, rhs = rows
+    row_kind, row_idx, row_p, _, _, _, _, rhs, row_cable = rows
+    cables, seg_cable, rest, rest_d, lam_s, lam_d = S.cable_par, S.seg_cable, S.rest, S.rest_d, S.lam_s, S.lam_d
+    spools = S.winch_pin.shape[0] > 0
     rho = 0.0
     for r in range(rhs.shape[0]):
         kind = row_kind[r]
@@ -338,20 +326,20 @@ def _chord_rhs(S, rows):
         if kind != ROW_STRETCH and kind != ROW_DISTANCE:
             continue
         i, j = row_p[r, 0], row_p[r, 1]
-        if (w[i] == 0.0 and w[j] == 0.0) or (S.winch_pin.shape[0] > 0 and _in_gap(S.seg_cable, kind, row_idx[r])):
+        if (w[i] == 0.0 and w[j] == 0.0) or (spools and _in_gap(seg_cable, kind, row_idx[r])):
             continue
         dx, dy, dz = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         idx = row_idx[r]
-        cp = S.cable_par[_row_cable(S, kind, idx)]
+        cp = cables[row_cable[r]]
         if kind == ROW_STRETCH:
-            if S.rest[idx] < 0.0:  # a segment a ring holds
+            if rest[idx] < 0.0:  # a segment a ring holds
                 continue
-            rhs[r] = -(length - S.rest[idx]) - cp.at_s * S.lam_s[idx]
-            rho = max(rho, abs(rhs[r]) / S.rest[idx])
+            rhs[r] = -(length - rest[idx]) - cp.at_s * lam_s[idx]
+            rho = max(rho, abs(rhs[r]) / rest[idx])
         else:
-            rhs[r] = -(length - S.rest_d[idx]) - cp.at_b * S.lam_d[idx]
-            rho = max(rho, abs(rhs[r]) / S.rest_d[idx])
+            rhs[r] = -(length - rest_d[idx]) - cp.at_b * lam_d[idx]
+            rho = max(rho, abs(rhs[r]) / rest_d[idx])
     return rho
 
 
@@ -368,7 +356,7 @@ def _direct_once(S):
     elif P.gs_stiff:
         rho = _direct_once_geometric(S)
     else:
-        rows = (S.row_kind, S.row_idx, S.row_p, S.prow, S.pslot, S.band, S.grad, S.rhs)
+        rows = (S.row_kind, S.row_idx, S.row_p, S.prow, S.pslot, S.band, S.grad, S.rhs, S.row_cable)
         rho = _direct_residuals(S, rows)
         _schur_assemble(S, rows)
         banded_ldlt_solve(S.band, S.rhs, P.bandwidth)
@@ -388,7 +376,8 @@ def _direct_once_geometric(S):
     (:func:`_chord_rhs`); XPBD's (k = 1). In a substep's first solve the multipliers are the previous substep's (λ
     is reset every substep, and would give M̃ = M), in a later one (the safeguard's, or a second iteration) this
     substep's so far, which makes it Newton's step. Returns ρ before it."""
-    rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs)
+    rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs,
+            S.gs_row_cable)
     bandwidth = S.par[0].gs_bandwidth
     rho = _direct_residuals(S, rows)
     _schur_assemble(S, rows)

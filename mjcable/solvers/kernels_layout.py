@@ -191,6 +191,7 @@ FIELDS = (
     ("row_kind", _I1, "(R,) ROW_*"), ("row_idx", _I1, "(R,) constraint index"), ("row_p", _I2, "(R, 3) particles"),
     ("prow", _I2, "(N, W) rows touching a particle"), ("pslot", _I2, "(N, W) the particle's slot in them"),
     ("band", _F2, "(R, bw + 1) lower band"), ("grad", _F3, "(R, 3, 3) row gradients"), ("rhs", _F1, "(R,)"),
+    ("row_cable", _I1, "(R,) the row's cable (its compliance, factor and l₀: a row of cable_par)"),
     # friction, per particle and substep (sums over its contacts and the substep's iterations; Δλ in kg·m)
     ("fric_n", _F1, "(N,) kg·m the particle's share of its contacts' Σ Δλₙ"),
     ("fric_mu", _F1, "(N,) the largest μ of its contacts"), ("fric_slid", _B1, "(N,) it slid (reached the cone's rim)"),
@@ -257,7 +258,7 @@ FIELDS = (
     ("gs_row_kind", _I1, "(R',) ROW_*"), ("gs_row_idx", _I1, "(R',) constraint index"),
     ("gs_row_p", _I2, "(R', 3) particles"), ("gs_prow", _I2, "(N, W') rows touching a particle"),
     ("gs_pslot", _I2, "(N, W') the particle's slot in them"), ("gs_band", _F2, "(R', bw' + 1) lower band"),
-    ("gs_grad", _F3, "(R', 3, 3) row gradients"), ("gs_rhs", _F1, "(R',)"),
+    ("gs_grad", _F3, "(R', 3, 3) row gradients"), ("gs_rhs", _F1, "(R',)"), ("gs_row_cable", _I1, "(R',)"),
     ("lam_gs", _F1, "(n,) stretch multipliers of the last direct solve"),
     ("gs_blocks", _F2, "(n, 12) or (0, 12) per segment of a stretch chain (par.gs_chain): its direction n (3), the "
      "block solve's E = Π D⁻¹ Π (6: xx, yy, zz, xy, xz, yz) and forward-substituted y (3)"),
@@ -358,9 +359,10 @@ def _pins(S, pin_p, pin_from, pin_to, pin_active, pin_release, pin_force, pin_su
 
 
 @_jit
-def _direct(S, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs):
+def _direct(S, row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, row_cable):
     S.row_kind, S.row_idx, S.row_p, S.prow, S.pslot, S.band, S.grad, S.rhs = (row_kind, row_idx, row_p, prow, pslot,
                                                                              band, grad, rhs)
+    S.row_cable = row_cable
 
 
 @_jit
@@ -437,9 +439,11 @@ def _scratch_forces(S, force, applied, jacr, solved_r):
 
 
 @_jit
-def _geometric(S, gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot, gs_band, gs_grad, gs_rhs, lam_gs, gs_blocks):
+def _geometric(S, gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot, gs_band, gs_grad, gs_rhs, gs_row_cable, lam_gs,
+               gs_blocks):
     S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot = gs_row_kind, gs_row_idx, gs_row_p, gs_prow, gs_pslot
-    S.gs_band, S.gs_grad, S.gs_rhs, S.lam_gs, S.gs_blocks = gs_band, gs_grad, gs_rhs, lam_gs, gs_blocks
+    S.gs_band, S.gs_grad, S.gs_rhs, S.gs_row_cable = gs_band, gs_grad, gs_rhs, gs_row_cable
+    S.lam_gs, S.gs_blocks = lam_gs, gs_blocks
 
 
 @_jit
@@ -506,7 +510,7 @@ _PARTS = (
     (_chain, ("x", "v", "x0", "w", "mass", "react", "dx", "relax", "prev", "query_x", "par")),
     (_constraints, ("rest", "lam_s", "rest_d", "lam_d", "lam_b", "clamp_pq", "clamp_pin", "clamp_dir", "lam_c")),
     (_pins, ("pin_p", "pin_from", "pin_to", "pin_active", "pin_release", "pin_force", "pin_sum", "pin_count")),
-    (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs")),
+    (_direct, ("row_kind", "row_idx", "row_p", "prow", "pslot", "band", "grad", "rhs", "row_cable")),
     (_friction, ("fric_n", "fric_mu", "fric_slid", "fric_nsum", "fric_impulse", "fric_normal", "fric_ob")),
     (_anchors, ("fric_unit", "fric_push", "fric_cone", "fric_sole", "anchor", "anchor_ob")),
     (_obstacle_contacts, ("con_seg", "con_s", "con_normal", "con_offset", "con_mu", "con_shape", "con_face",
@@ -525,7 +529,7 @@ _PARTS = (
     (_scratch, ("saved", "jacp", "jn", "solved", "start_from", "start_to", "target", "p0", "arm", "free", "free_w")),
     (_scratch_forces, ("force", "applied", "jacr", "solved_r")),
     (_geometric, ("gs_row_kind", "gs_row_idx", "gs_row_p", "gs_prow", "gs_pslot", "gs_band", "gs_grad", "gs_rhs",
-                  "lam_gs", "gs_blocks")),
+                  "gs_row_cable", "lam_gs", "gs_blocks")),
     (_frames, ("q", "q0", "omega", "inertia", "wq", "darboux0", "lam_ss", "lam_bt", "lam_end")),
     (_frame_scratch, ("clamp_seg", "clamp_q", "clamp_qfrom", "clamp_qto", "clamp_react", "clamp_wq", "end_clamp",
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),

@@ -84,11 +84,12 @@ def _perpendiculars(axis: np.ndarray) -> np.ndarray:
     return np.stack([d1, np.cross(axis, d1)])
 
 
-def _direct_rows(link: np.ndarray, bending: str, clamp_pq: np.ndarray, transverse: bool = False) -> dict:
-    """The banded system's rows of the segments ``link`` (n,) marks as real (a gap between two cables has none), in
-    order of their first particle, with per-particle row lists and the half-bandwidth; with ``transverse``, each
-    stretch row followed by its two transverse rows (the geometric stiffness, :mod:`mjcable.solvers.direct_kernels`).
-    The gaps make it one band per cable, solved as one."""
+def _direct_rows(seg_cable: np.ndarray, bending: str, clamp_pq: np.ndarray, transverse: bool = False) -> dict:
+    """The banded system's rows of the segments of cables (``seg_cable`` (n,) ≥ 0; a gap between two cables has
+    none), in order of their first particle, with each row's cable, per-particle row lists and the half-bandwidth;
+    with ``transverse``, each stretch row followed by its two transverse rows (the geometric stiffness,
+    :mod:`mjcable.solvers.direct_kernels`). The gaps make it one band per cable, solved as one."""
+    link = seg_cable >= 0
     n = len(link)
     n_particles = n + 1
     segments = [i for i in range(n) if link[i]]
@@ -107,6 +108,7 @@ def _direct_rows(link: np.ndarray, bending: str, clamp_pq: np.ndarray, transvers
     rows.sort(key=lambda r: r[0])  # stable: keeps the kinds' relative order per particle
     nrow = len(rows)
     row_kind = np.array([r[1] for r in rows], dtype=np.int64)
+    row_cable = np.array([max(seg_cable[min(r[3])], 0) for r in rows], dtype=np.int64)  # (its first segment's)
     row_idx = np.array([r[2] for r in rows], dtype=np.int64)
     row_p = np.full((nrow, 3), -1, dtype=np.int64)
     touching = [[] for _ in range(n_particles)]
@@ -123,7 +125,7 @@ def _direct_rows(link: np.ndarray, bending: str, clamp_pq: np.ndarray, transvers
             prow[p, k], pslot[p, k] = r, slot
         if t:
             bandwidth = max(bandwidth, max(r for r, _ in t) - min(r for r, _ in t))
-    return dict(row_kind=row_kind, row_idx=row_idx, row_p=row_p, prow=prow, pslot=pslot,
+    return dict(row_kind=row_kind, row_idx=row_idx, row_p=row_p, row_cable=row_cable, prow=prow, pslot=pslot,
                 band=np.zeros((nrow, bandwidth + 1)), grad=np.zeros((nrow, 3, 3)), rhs=np.zeros(nrow),
                 bandwidth=bandwidth)
 
@@ -352,20 +354,22 @@ def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: flo
     for cable, part in zip(cables, scene.cable_slices):
         damp[part] = math.exp(-cable.damping * h)
     no_clamps = np.zeros((0, 2), dtype=np.int64)
+    seg_cable = topo["seg_cable"]
+    placeholder = np.zeros(1, dtype=np.int64)  # one segment: the unused rows' placeholder of the right types
     if settings.order == "direct" and first.direct_bending:
-        rows = _direct_rows(link, first.bending, clamp_pq)
+        rows = _direct_rows(seg_cable, first.bending, clamp_pq)
     elif settings.order == "direct":
-        rows = _direct_rows(link, "none", no_clamps)
+        rows = _direct_rows(seg_cable, "none", no_clamps)
     else:
-        rows = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
+        rows = _direct_rows(placeholder, "none", no_clamps)
     geometric = settings.order == "direct" and first.geometric_stiffness
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
     gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
-        gs = _direct_rows(link, first.bending if first.direct_bending else "none",
+        gs = _direct_rows(seg_cable, first.bending if first.direct_bending else "none",
                           clamp_pq if first.direct_bending else no_clamps, transverse=True)
     else:
-        gs = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
+        gs = _direct_rows(placeholder, "none", no_clamps)
     rows.update({f"gs_{name}": value for name, value in gs.items()})
     rows["gs_blocks"] = np.zeros((n if gs_chain else 0, 12))
     par = np.zeros(1, dtype=layout.PARAMS)
