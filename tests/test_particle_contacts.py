@@ -157,9 +157,10 @@ def test_a_rope_dropped_on_a_frictionless_peg_does_not_bounce(model, substeps, d
 def _state(**arrays):
     """A solver state of ``arrays`` (field name → array), every other field of ``kernels_layout.FIELDS`` empty, and
     the arrays by name (sharing the state's memory, the parameter record ``par`` among them)."""
+    records = {"par": kernels_layout.PARAMS, "cable_par": kernels_layout.CABLE_PARAMS}
     fields = {name: np.zeros((0,) * typ.ndim, dtype=np.dtype(str(typ.dtype))) for name, typ, _ in kernels_layout.FIELDS
-              if name != "par"}
-    fields["par"] = np.zeros(1, dtype=kernels_layout.PARAMS)
+              if name not in records}
+    fields.update({name: np.zeros(1, dtype=dtype) for name, dtype in records.items()})
     fields.update(arrays)
     return kernels_layout.assemble(fields), fields
 
