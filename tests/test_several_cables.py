@@ -325,11 +325,12 @@ CAPSTAN_RADIUS = 0.015  # m, both cables: R_c = 0.03 m, the peg's R_c in mjcable
 TAUT_SEGMENTS = 21  # the taut cable's (an odd count: the rope lies over a segment's middle)
 
 
-def _rope_over_cable(factor: float, *, held: bool = False, taut_radius: float = CAPSTAN_RADIUS) -> mjcable.Scene:
-    """The capstan's rope (legs at ``factor`` times the heavy-rope law's ratio, R_c = rope's radius + ``taut_radius``)
-    over a horizontal cable of radius ``taut_radius`` and the rope's segment length along y through the peg's axis,
-    pinned straight (taut) at both ends, or with ``held`` at every particle."""
-    rope = contact.capstan_scene(factor, mu=CAPSTAN_MU, peg_radius=taut_radius, radius=CAPSTAN_RADIUS).cable
+def _rope_over_cable(factor: float, *, held: bool = False, radii: tuple = (CAPSTAN_RADIUS,) * 2) -> mjcable.Scene:
+    """The capstan's rope (legs at ``factor`` times the heavy-rope law's ratio, R_c = r₁ + r₂, ``radii`` the rope's
+    and the cable's) over a horizontal cable of the rope's segment length along y through the peg's axis, pinned
+    straight (taut) at both ends, or with ``held`` at every particle."""
+    rope_radius, taut_radius = radii
+    rope = contact.capstan_scene(factor, mu=CAPSTAN_MU, peg_radius=taut_radius, radius=rope_radius).cable
     span = TAUT_SEGMENTS * rope.segment_length
     taut = mjcable.CableSpec([[0.0, -span / 2, 0.0], [0.0, span / 2, 0.0]], TAUT_SEGMENTS, taut_radius,
                              contact.LINEAR_DENSITY * span, damping=contact.CAPSTAN_DAMPING, friction=CAPSTAN_MU)
@@ -337,10 +338,10 @@ def _rope_over_cable(factor: float, *, held: bool = False, taut_radius: float = 
     return mjcable.Scene((rope, taut), tuple(mjcable.Pin(k, cable=1) for k in pins), name="rope over cable")
 
 
-def _slide_speed(model: str, dt: float, factor: float, *, held: bool = False, taut_radius: float = CAPSTAN_RADIUS,
+def _slide_speed(model: str, dt: float, factor: float, *, held: bool = False, radii: tuple = (CAPSTAN_RADIUS,) * 2,
                  **settings) -> float:
     """The rope's long end's mean speed (m/s) relative to the taut cable's middle over seconds 1 to 3."""
-    scene = _rope_over_cable(factor, held=held, taut_radius=taut_radius)
+    scene = _rope_over_cable(factor, held=held, radii=radii)
     rope, taut = scene.cable_slices
     middle = (taut.start + taut.stop) // 2
     sim = mjcable.Simulator(scene, model, dt=dt, **settings)
@@ -370,11 +371,12 @@ def test_rope_over_a_taut_cable_obeys_the_heavy_capstan_law(model, dt, settings)
 @pytest.mark.slow
 @pytest.mark.parametrize("model, settings", [("xpbd", {}), ("pbd", dict(order="direct"))])
 def test_rope_over_a_thinner_taut_cable_obeys_the_capstan_law_with_the_sum_of_the_radii(model, settings):
-    """The rope (r = 15 mm) over a taut cable of a third of its radius (5 mm): held at 0.85 and sliding at 1.15 of
-    the heavy-rope ratio with R_c = r₁ + r₂ = 20 mm (each cable's own radius in their contacts)."""
-    thin = CAPSTAN_RADIUS / 3.0
-    assert _slide_speed(model, 0.002, 0.85, taut_radius=thin, **settings) < contact.HOLD_SPEED
-    assert _slide_speed(model, 0.002, 1.15, taut_radius=thin, **settings) > contact.SLIDE_SPEED
+    """A rope of radius 20 mm over a taut cable of half its radius (10 mm): held at 0.85 and sliding at 1.15 of the
+    heavy-rope ratio with R_c = r₁ + r₂ = 30 mm, each cable's own radius in their contacts (the distance itself:
+    ``tests/test_cable_properties.py``)."""
+    radii = (2.0 * CAPSTAN_RADIUS / 1.5, CAPSTAN_RADIUS / 1.5)
+    assert _slide_speed(model, 0.002, 0.85, radii=radii, **settings) < contact.HOLD_SPEED
+    assert _slide_speed(model, 0.002, 1.15, radii=radii, **settings) > contact.SLIDE_SPEED
 
 
 @pytest.mark.parametrize("model", ["pbd", pytest.param("jakobsen", marks=pytest.mark.slow),
