@@ -117,6 +117,7 @@ def test_a_stiff_and_a_soft_cable_under_one_load_stretch_by_their_own_tension_ov
 #: two clamped cantilevers side by side: (length m, segments, radius m, mass kg, young Pa, y m); E·I 0.29 and 0.070
 #: N·m², segments of 12.5 and 10 mm, 40 and 30 g/m
 CANTILEVERS = ((0.5, 40, 0.005, 0.02, 6e8, 0.0), (0.4, 40, 0.004, 0.012, 3.5e8, 0.2))
+LIMP = (0.3, 20, 0.003, 0.01, 0.0, 0.4)  # a limp cable (E = 0) clamped beside them: it hangs from its clamp
 
 
 def _cantilevers(specs) -> mjcable.Scene:
@@ -128,11 +129,14 @@ def _cantilevers(specs) -> mjcable.Scene:
 @pytest.mark.slow
 def test_two_cantilevers_of_different_bending_stiffness_droop_as_the_heavy_elastica():
     """Two clamped cantilevers of different E·I, segment and weight in one ``xpbd`` state (the direct order: the
-    stated stiffness): each tip droops as the heavy elastica of its own E·I and weight
-    (:func:`mjcable.reference.cantilever`) within 0.5 % (40 segments of the continuous rod)."""
-    scene = _cantilevers(CANTILEVERS)
+    stated stiffness), a limp cable clamped beside them: each tip droops as the heavy elastica of its own E·I and
+    weight (:func:`mjcable.reference.cantilever`) within 0.5 % (40 segments of the continuous rod), and the limp
+    cable hangs straight down from its first segment, which its (rigid) clamp holds level."""
+    scene = _cantilevers(CANTILEVERS + (LIMP,))
     sim = mjcable.Simulator(scene, "xpbd", order="direct")
     sim.step(2.0)
+    limp = sim.positions[scene.cable_slices[-1]]
+    assert 1.0 - limp[-1, 2] == pytest.approx(LIMP[0] * (1.0 - 1.0 / LIMP[1]), rel=1e-3)
     for cab, (length, *_), part in zip(scene.cables, CANTILEVERS, scene.cable_slices):
         droop = 1.0 - sim.positions[part][-1, 2]
         expected = -reference.cantilever(length, cab.mass * G / length, cab.bending_stiffness).z[-1]
@@ -143,14 +147,16 @@ def test_two_cantilevers_of_different_bending_stiffness_droop_as_the_heavy_elast
 @pytest.mark.parametrize("model, settings", [("pbd", {}), ("jakobsen", {}), ("xpbd", {}),
                                              ("pbd", dict(order="jacobi")), ("xpbd", dict(order="jacobi"))])
 def test_cantilevers_of_different_material_side_by_side_bend_as_each_alone(model, settings):
-    """The two cantilevers in one state move as each does alone (to 1e-12 m after 1 s): each cable's bend factor
-    (``pbd`` and ``jakobsen`` derive it from its E·I, segment and mass per segment), compliances, clamp and damping
-    are its own. (The Gauss-Seidel sweeps of ``pbd`` and ``jakobsen`` leave a cantilever far softer than its E·I at
-    any iteration count, ``docs/measurements.md``: the elastica is ``xpbd``'s test.)"""
+    """The two cantilevers and a limp cable clamped beside them in one state move as each does alone (to 1e-12 m
+    after 1 s): each cable's bend factor (``pbd`` and ``jakobsen`` derive it from its E·I, segment and mass per
+    segment), compliances, clamp and damping are its own, and the limp one has no bending rows. (The Gauss-Seidel
+    sweeps of ``pbd`` and ``jakobsen`` leave a cantilever far softer than its E·I at any iteration count,
+    ``docs/measurements.md``: the elastica is ``xpbd``'s test.)"""
     settings = dict(settings, iterations=8)
-    together = mjcable.Simulator(_cantilevers(CANTILEVERS), model, **settings)
+    specs = CANTILEVERS + (LIMP,)
+    together = mjcable.Simulator(_cantilevers(specs), model, **settings)
     together.step(1.0)
-    for spec, part in zip(CANTILEVERS, together.scene.cable_slices):
+    for spec, part in zip(specs, together.scene.cable_slices):
         alone = mjcable.Simulator(_cantilevers((spec,)), model, **settings)
         alone.step(1.0)
         np.testing.assert_allclose(together.positions[part], alone.positions, rtol=0.0, atol=1e-12)

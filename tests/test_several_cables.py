@@ -412,15 +412,6 @@ def test_cables_of_differing_radius_are_refused_naming_it(model):
         mjcable.Simulator(mjcable.Scene((A, thick)), model)
 
 
-@pytest.mark.parametrize("model", PARTICLE)
-def test_a_limp_cable_beside_a_bending_one_is_refused_naming_it(model):
-    """The point chains bend every cable or none (one bending kind in the state): a limp cable (E = 0) beside one
-    with E·I > 0 is refused, naming the bending kinds."""
-    stiff = mjcable.CableSpec([[0.0, 0.3, 1.0], [0.6, 0.3, 1.0]], 10, 0.005, 0.06, young=1e6)
-    with pytest.raises(ValueError, match=r"cables\[1\]: the particle solvers hold one bending for all cables, got "
-                                         r"'curvature' against cables\[0\]'s 'none'"):
-        mjcable.Simulator(mjcable.Scene((A, stiff)), model)
-
 
 def test_a_clamped_junction_is_refused_by_the_particle_solvers():
     leg = cable([[0.6, 0, 1], [0.6, 0.6, 1]])  # A's segment length

@@ -100,12 +100,14 @@ def jacobi_relax(S):
     relax = S.relax
     relax[:] = 0.0
     bending = S.par[0].bending
-    chains = S.chain_seg
+    chains, cables = S.chain_seg, S.cable_par
     for chain in range(chains.shape[0]):  # each cable's segments [first, stop); the gaps between cables have none
         first, stop = chains[chain, 0], chains[chain, 1]
         for i in range(first, stop):
             relax[i] += 1.0
             relax[i + 1] += 1.0
+        if not cables[chain].bends:  # (a limp cable beside bending ones)
+            continue
         if bending == BEND_CURVATURE:
             for b in range(first, stop - 1):
                 relax[b] += 1.0
@@ -145,6 +147,8 @@ def stretch_sweep(x, out, w, react, rest, gap, cables, lam, sqrt_approx, relax, 
     for chain in range(chains.shape[0]):
         if gap == 1:
             alpha_tilde, k = cables[chain].at_s, cables[chain].k_s
+        elif not cables[chain].bends:  # a limp cable beside bending ones: no bending stick
+            continue
         else:
             alpha_tilde, k = cables[chain].at_b, cables[chain].k_b
         rigid = alpha_tilde == 0.0 and k == 1.0
@@ -196,6 +200,8 @@ def curvature_sweep(x, out, w, react, cables, lam, relax, chains):
     the three components decouple and each is one [M16] Eq. 18 update (Jacobi: its :func:`share`)."""
     for chain in range(chains.shape[0]):
         cp = cables[chain]
+        if not cp.bends:  # a limp cable beside bending ones
+            continue
         inv_l0sq = cp.inv_l0sq
         _curvature_chain(x, out, w, react, inv_l0sq, inv_l0sq * inv_l0sq, cp.at_b, lam, cp.k_b, relax, chains[chain])
 

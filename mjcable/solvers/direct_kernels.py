@@ -399,6 +399,8 @@ def _distance_rows_within(x, rest, gap, cables, lam, tol, chains):
     latter always true when t ≤ e). α̃ is each chain's cable's (``cables`` (C,) CABLE_PARAMS: the stretch's, or with
     gap 2 the bending's)."""
     for chain in range(chains.shape[0]):
+        if gap == 2 and not cables[chain].bends:  # (a limp cable beside bending ones has no bending rows)
+            continue
         alpha_tilde = cables[chain].at_s if gap == 1 else cables[chain].at_b
         if not _chain_rows_within(x, rest, gap, alpha_tilde, lam, tol, chains[chain, 0], chains[chain, 1]):
             return False

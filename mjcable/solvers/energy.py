@@ -66,6 +66,7 @@ def elastic_energy(a) -> tuple:
     seg = np.linalg.norm(np.diff(x, axis=0), axis=1)
     stretch = _potential(((seg - a["rest"]) ** 2)[link], row_compliance(
         cp["alpha_s"][link], cp["k_s"][link], n_it, h, (w[:-1] + w[1:])[link]))
+    triplet &= cp["bends"][:-1]  # (a limp cable beside bending ones has no bending rows)
     bend = cp[:-1][triplet]  # each bending row's cable's
     bending = 0.0
     if P["bending"] == layout.BEND_CURVATURE and len(x) > 2:

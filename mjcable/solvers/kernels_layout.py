@@ -157,6 +157,8 @@ CABLE_PARAMS = np.dtype([
     # segments apart (j − i) from which two of the cable's own segments may touch: their capsules don't overlap at
     # rest, (j − i − 1) l₀ ≥ 2 r (cable_contact_kernels.self_contacts)
     ("near", "i8"),
+    # whether the state's bending rows (par.bending) act on the cable: not on a limp one (E·I = 0) beside others
+    ("bends", "?"),
 ])
 
 

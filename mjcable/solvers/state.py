@@ -84,16 +84,18 @@ def _perpendiculars(axis: np.ndarray) -> np.ndarray:
     return np.stack([d1, np.cross(axis, d1)])
 
 
-def _direct_rows(seg_cable: np.ndarray, bending: str, clamp_pq: np.ndarray, transverse: bool = False) -> dict:
+def _direct_rows(seg_cable: np.ndarray, bending: str, clamp_pq: np.ndarray, transverse: bool = False,
+                 bends: Optional[np.ndarray] = None) -> dict:
     """The banded system's rows of the segments of cables (``seg_cable`` (n,) ≥ 0; a gap between two cables has
     none), in order of their first particle, with each row's cable, per-particle row lists and the half-bandwidth;
-    with ``transverse``, each stretch row followed by its two transverse rows (the geometric stiffness,
-    :mod:`mjcable.solvers.direct_kernels`). The gaps make it one band per cable, solved as one."""
+    bending rows on the cables that ``bends`` (C,) marks (``None``: all); with ``transverse``, each stretch row
+    followed by its two transverse rows (the geometric stiffness, :mod:`mjcable.solvers.direct_kernels`). The gaps
+    make it one band per cable, solved as one."""
     link = seg_cable >= 0
     n = len(link)
     n_particles = n + 1
     segments = [i for i in range(n) if link[i]]
-    triplets = [b for b in range(n - 1) if link[b] and link[b + 1]]
+    triplets = [b for b in range(n - 1) if link[b] and link[b + 1] and (bends is None or bends[seg_cable[b]])]
     rows = []
     for i in segments:
         rows += [(i, layout.ROW_STRETCH, i, (i, i + 1))]
@@ -195,18 +197,19 @@ def shared_cable(scene: Scene, properties: tuple, holder: str = "the particle so
 
 
 #: the fields of :class:`Rules` that one state holds once for all of its cables (:func:`cable_rules`)
-_ONE_FOR_ALL = ("verlet_start", "bending", "sqrt_approx", "direct_bending", "geometric_stiffness", "rod_limp")
+_ONE_FOR_ALL = ("verlet_start", "sqrt_approx", "direct_bending", "geometric_stiffness", "rod_limp")
 
 
 def cable_rules(rules, scene: Scene, settings: ParticleSettings, h: float) -> tuple:
     """One :class:`Rules` per cable of ``scene``: ``rules(scene, settings, h)`` (a model's rules) of each cable alone
     (:meth:`~mjcable.scene.Scene.cable_scene`), so that cables of different radius, segment length, damping, E·A
-    and E·I each get their own compliances and factors. A rod with frames (``rod_compliance``) holds one set for
-    all cables: its rules of the whole scene, once per cable.
+    and E·I each get their own compliances and factors; a limp cable (bending ``"none"``) beside bending ones has
+    none of their bending rows. A rod with frames (``rod_compliance``) holds one set for all cables: its rules of
+    the whole scene, once per cable.
 
     Raises:
-      ValueError: two cables whose rules differ in what the state holds once (:data:`_ONE_FOR_ALL`: e.g. one cable
-        with bending stiffness and one without), naming both; or the model's own (a rod's cables that differ)."""
+      ValueError: two cables whose rules differ in what the state holds once (:data:`_ONE_FOR_ALL`, or two bending
+        kinds other than ``"none"``), naming both; or the model's own (a rod's cables that differ)."""
     one = tuple(rules(scene.cable_scene(c), settings, h) for c in range(len(scene.cables)))
     if one[0].rod_compliance is not None:
         return (rules(scene, settings, h),) * len(one)
@@ -215,9 +218,17 @@ def cable_rules(rules, scene: Scene, settings: ParticleSettings, h: float) -> tu
             mine, first = getattr(r, name), getattr(one[0], name)
             if mine != first:
                 raise ValueError(f"cables[{k}]: the particle solvers hold one {name} for all cables, got {mine!r} "
-                                 f"against cables[0]'s {first!r}; give every cable bending stiffness (young > 0) "
-                                 f"or none, or set the solver's bending for all")
+                                 f"against cables[0]'s {first!r}; give the cables the same settings")
+    kinds = sorted({r.bending for r in one} - {"none"})
+    if len(kinds) > 1:
+        raise ValueError(f"the particle solvers bend every cable of a state one way, got bending {kinds}; set the "
+                         f"solver's bending for all")
     return one
+
+
+def _bending(rules: tuple) -> str:
+    """The state's bending kind of cables with ``rules``: theirs, ``"none"`` where none bends."""
+    return next((r.bending for r in rules if r.bending != "none"), "none")
 
 
 def _cable_params(scene: Scene, rules: tuple, h: float) -> np.ndarray:
@@ -230,7 +241,7 @@ def _cable_params(scene: Scene, rules: tuple, h: float) -> np.ndarray:
         near = int(math.ceil(2.0 * cable.radius / l0 * (1.0 - _ROUND_OFF))) + 1
         out[c] = (cable.radius, l0, 1.0 / l0**2, r.alpha_stretch, r.alpha_bend, r.alpha_clamp,
                   r.alpha_stretch / h2, r.alpha_bend / h2, r.alpha_clamp / h2, r.k_stretch, r.k_bend, r.k_clamp,
-                  max(near, 2))
+                  max(near, 2), r.bending != "none")
     return out
 
 
@@ -356,8 +367,9 @@ def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: flo
     no_clamps = np.zeros((0, 2), dtype=np.int64)
     seg_cable = topo["seg_cable"]
     placeholder = np.zeros(1, dtype=np.int64)  # one segment: the unused rows' placeholder of the right types
+    bending, bends = _bending(rules), cable_par["bends"]
     if settings.order == "direct" and first.direct_bending:
-        rows = _direct_rows(seg_cable, first.bending, clamp_pq)
+        rows = _direct_rows(seg_cable, bending, clamp_pq, bends=bends)
     elif settings.order == "direct":
         rows = _direct_rows(seg_cable, "none", no_clamps)
     else:
@@ -366,8 +378,8 @@ def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: flo
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
     gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
-        gs = _direct_rows(seg_cable, first.bending if first.direct_bending else "none",
-                          clamp_pq if first.direct_bending else no_clamps, transverse=True)
+        gs = _direct_rows(seg_cable, bending if first.direct_bending else "none",
+                          clamp_pq if first.direct_bending else no_clamps, transverse=True, bends=bends)
     else:
         gs = _direct_rows(placeholder, "none", no_clamps)
     rows.update({f"gs_{name}": value for name, value in gs.items()})
@@ -380,7 +392,7 @@ def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: flo
             max_radius=max(cable.radius for cable in cables),
             cable_contact=len(scene.cables) > 1, junction_count=0, iterations=settings.iterations,
             substeps=settings.substeps,
-            order=ORDER_CODES[settings.order], bending=BENDING_CODES[first.bending], sqrt_approx=first.sqrt_approx,
+            order=ORDER_CODES[settings.order], bending=BENDING_CODES[bending], sqrt_approx=first.sqrt_approx,
             direct_all=first.direct_bending, bandwidth=rows.pop("bandwidth"), dt=dt, geometric=geometric,
             gs_bandwidth=rows.pop("gs_bandwidth"), gs_stiff=False, gs_chain=gs_chain, direct_solves=0,
             max_distance=math.inf, max_speed=math.inf, strain_fail=math.inf, strain_warn=math.inf, tear=math.inf,
