@@ -50,7 +50,7 @@ class Rules:
       geometric_stiffness: with ``order="direct"``, the stretch rows' geometric stiffness λ ∇²C where the tension
         needs it (a KKT solve in positions and multipliers, :mod:`mjcable.solvers.direct_kernels`): for multipliers
         that are forces, k = 1 (XPBD; PBD and Jakobsen at ``stretch_factor`` 1, whose stretch rows are then XPBD's
-        at α = 0).
+        at α = 0), and a limp Cosserat rod's stretch rows (:mod:`mjcable.solvers.cosserat_direct_kernels`).
       rod_compliance: a Cosserat rod's six compliances (stretch–shear: shear, shear, stretch in 1/(N·m);
         bend–twist: bend, bend, twist in 1/(N·m³); :mod:`mjcable.solvers.cosserat_kernels`), which gives every
         segment a material frame; ``None``: no frames (the state's frame fields are empty).
@@ -298,7 +298,8 @@ def chain_arrays(scene: Scene, rules: Rules, settings: ParticleSettings, dt: flo
         rows = _direct_rows(np.ones(1, dtype=bool), "none", no_clamps)  # unused placeholder of the right types
     geometric = settings.order == "direct" and rules.geometric_stiffness
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
-    gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
+    gs_chain = (geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
+                and rules.rod_compliance is None)  # (a rod condenses its own: cosserat_direct_kernels)
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
         gs = _direct_rows(link, rules.bending if rules.direct_bending else "none",
                           clamp_pq if rules.direct_bending else no_clamps, transverse=True)
