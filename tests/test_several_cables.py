@@ -354,10 +354,9 @@ def _slide_speed(model: str, dt: float, factor: float, *, held: bool = False, **
     # the Gauss-Seidel sweeps leave the cable pinned taut 4 cm of sag, on which the rope bounces
     # (docs/measurements.md); the direct order keeps it straight (the tension's geometric stiffness)
     ("pbd", 0.002, dict(order="direct")), ("jakobsen", 0.002, dict(order="direct")),
-    # the rod's direct solve has no geometric stiffness of the tension (xpbd's, Tournier et al. 2015), without which
-    # xpbd's rope slides at 0.85 over the taut cable too (docs/measurements.md, 2026-11-27)
-    pytest.param("cosserat", 0.002, {}, marks=[pytest.mark.slow, pytest.mark.xfail(
-        strict=True, reason="cosserat: no geometric stiffness of a taut cable's tension; the rope slides at 0.85")]),
+    # the limp rod's direct solve carries the tension's geometric stiffness as xpbd's does (Tournier et al. 2015),
+    # without which the rope slides at 0.85 (docs/measurements.md, 2026-11-27)
+    pytest.param("cosserat", 0.002, {}, marks=pytest.mark.slow),
 ])
 def test_rope_over_a_taut_cable_obeys_the_heavy_capstan_law(model, dt, settings):
     """Held (slower than 2 mm/s) at 0.85 e^{μπ} of the heavy-rope ratio with R_c = r₁ + r₂, sliding (faster than
