@@ -58,11 +58,11 @@ from mjcable import _validate, catalog
 from mjcable.errors import PhysicsWarning
 from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import convergence
-from mjcable.solvers.convergence import HANGING_SLOPE, STRAIN_WARNING, resolve_iterations
+from mjcable.solvers.convergence import HANGING_SLOPE, STRAIN_WARNING, resolve_iterations, resolve_order
 from mjcable.solvers.settings import MAX_AUTO_ITERATIONS
 from mjcable.worlds import pulley
 
-__all__ = ["check", "resolve_iterations", "STRAIN_WARNING", "STIFFNESS_TOLERANCE", "MAX_SUBSTEP_FACTOR",
+__all__ = ["check", "resolve_order", "resolve_iterations", "STRAIN_WARNING", "STIFFNESS_TOLERANCE", "MAX_SUBSTEP_FACTOR",
            "HANGING_SLOPE"]
 
 STIFFNESS_TOLERANCE = 0.1  # a rod whose expected sag is off by more than this fraction warns

@@ -3,6 +3,7 @@ scene warns with a :class:`mjcable.PhysicsWarning` when the Simulator is made, a
 what the model then does (a property it says it ignores changes nothing; a stretch or a sag it predicts is the one
 measured) and against the physics (catenary tension, beam theory)."""
 
+import dataclasses
 import math
 import warnings
 
@@ -263,3 +264,22 @@ def test_several_cables_in_sweeping_orders_warn_that_no_strain_estimate_is_made(
     assert bool(said) == warns
     if warns:
         assert f"order={order!r}" in said[0] and "use order='direct'" in said[0]
+
+
+def test_the_default_order_of_pbd_and_jakobsen_is_direct_where_the_sweeps_cant_carry_the_scene():
+    """``order=None`` takes Gauss-Seidel sweeps on a hanging cable (one iteration keeps it within its promise) and the
+    direct order with several cables, a winch or a ring (module docstring of ``resolve_order``); an order given
+    stays as it is."""
+    from mjcable.bench import ring
+
+    hang = mjcable.scenes.get("hang")
+    two = Scene((CableSpec([(-0.3, 0.0, 1.0), (0.3, 0.0, 1.0)], 20, 0.003, 0.02),
+                 CableSpec([(-0.3, 0.2, 1.0), (0.3, 0.2, 1.0)], 20, 0.003, 0.02)), (Pin(0), Pin(-1)))
+    winch = dataclasses.replace(hang, pins=(Pin(5, "winch"),))
+    for model in ("pbd", "jakobsen"):
+        assert mjcable.Simulator(hang, model).settings.order == "gauss-seidel"
+        for scene in (two, winch, ring.atwood_scene()):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", mjcable.PhysicsWarning)
+                assert mjcable.Simulator(scene, model).settings.order == "direct", (model, scene.name)
+                assert mjcable.Simulator(scene, model, order="jacobi").settings.order == "jacobi"

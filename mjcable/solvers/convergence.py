@@ -48,7 +48,7 @@ STRAIN_WARNING = 0.025
 HANGING_SLOPE = 45.0  # degrees from the horizontal: an unpinned cable most of whose start segments are steeper hangs
 
 __all__ = ["Rows", "sweep_map", "static_response", "bending_fraction", "stretch_strain", "static_strain",
-           "hung_masses", "hanging_support", "strain_estimate", "strain_within", "resolve_iterations", "MAX_SEGMENTS",
+           "hung_masses", "hanging_support", "strain_estimate", "strain_within", "resolve_order", "resolve_iterations", "MAX_SEGMENTS",
            "STRAIN_WARNING", "HANGING_SLOPE"]
 
 MAX_SEGMENTS = 400  # the longest chain analysed (a dense map of about 3n × 3n entries, raised by squaring)
@@ -373,6 +373,24 @@ def strain_estimate(scene: Scene, entry, dt: float):
 def strain_within(expected: Optional[float]) -> bool:
     """Whether an estimate of :func:`strain_estimate` is within :data:`STRAIN_WARNING` (``None``: nothing to say)."""
     return expected is None or expected <= STRAIN_WARNING
+
+
+def resolve_order(scene: Scene, entry, settings, dt: float):
+    """``settings`` with ``order=None`` (``pbd``'s and ``jakobsen``'s default) replaced by the order the Simulator
+    takes: ``"direct"`` where Gauss-Seidel sweeps can't carry the scene at the model's stated stiffness, else
+    ``"gauss-seidel"``. The sweeps can't carry rings (their projection after the chains carries the loads either side
+    only over many, irregular iterations), winches (the loaded rope stays long and its load bounces), several cables
+    (a cable pinned taut under another sags; no strain estimate is made for them) or a cable whose expected static
+    strain under its loads stays beyond :data:`STRAIN_WARNING` at :data:`MAX_AUTO_ITERATIONS` iterations (or the
+    iterations the user gave): measured in ``docs/measurements.md``. Other settings are returned as they are."""
+    if entry.family != "particle" or settings.order is not None:
+        return settings
+    direct = dataclasses.replace(settings, order="direct")
+    if scene.rings or len(scene.cables) > 1 or any(pin.kind == "winch" for pin in scene.pins):
+        return direct
+    sweeps = dataclasses.replace(settings, order="gauss-seidel")
+    most = sweeps if sweeps.iterations is not None else dataclasses.replace(sweeps, iterations=MAX_AUTO_ITERATIONS)
+    return sweeps if strain_within(strain_estimate(scene, entry, dt)(most)) else direct
 
 
 def resolve_iterations(scene: Scene, entry, settings, dt: float):
