@@ -401,11 +401,6 @@ def test_cables_of_differing_radius_are_refused_naming_it(model):
         mjcable.Simulator(mjcable.Scene((A, thick)), model)
 
 
-def test_a_clamped_junction_is_refused_by_the_particle_solvers():
-    leg = cable([[0.6, 0, 1], [0.6, 0.6, 1]])  # A's segment length
-    scene = mjcable.Scene((A, leg), junctions=(mjcable.Junction((0, -1), (1, 0), clamp=True),))
-    with pytest.raises(ValueError, match=r"junctions\[0\]: the particle solvers join two particles .* clamp=True"):
-        mjcable.Simulator(scene, "xpbd")
 @pytest.mark.slow
 def test_cosserat_cables_apart_move_as_each_alone():
     """Two stiff Cosserat rods (bend–twist rows, the banded solve) hanging apart in one state: the gap between them
