@@ -95,9 +95,11 @@ def static_strain(scene: Scene, timestep: float) -> Optional[float]:
     and the bodies hung on its pins, held by its pins or, where bodies alone hang on it, at its highest particle
     (:func:`mjcable.solvers.convergence.static_strain` and :func:`~mjcable.solvers.convergence.hanging_support`: a
     rope over a pulley or through a ring carries the heavier box's weight beside it; a hanging catenary carries
-    about 1.2 times the estimate at its pins); ``None`` where nothing holds the cable."""
-    k_stretch = _stiffness(scene, timestep)[0]
-    return convergence.static_strain(scene, 1.0 / k_stretch, hung=convergence.hung_masses(scene),
+    about 1.2 times the estimate at its pins); ``None`` where nothing holds the cable. The bending springs carry
+    their share of a straight cable's tension: a cut crosses one stretch spring and two bending springs, each
+    stretched over twice the length, so the cable's axial stiffness per segment is k₁ + 4 k₂."""
+    k_stretch, k_bend = _stiffness(scene, timestep)[:2]
+    return convergence.static_strain(scene, 1.0 / (k_stretch + 4.0 * k_bend), hung=convergence.hung_masses(scene),
                                      support=convergence.hanging_support(scene))
 
 
@@ -122,8 +124,8 @@ def precheck(scene: Scene, settings, dt: float) -> None:
            f"a smaller dt (a MuJoCo timestep of at most {dt / need:.3g} s)")
     if START_OVERSHOOT * strain > fail and convergence.hangs(scene):  # (else the loads pull only partly along it)
         raise ValueError(
-            f"springs: the stretch springs, capped at the stable stiffness {_stiffness(scene, timestep)[0]:.4g} N/m "
-            f"for MuJoCo's timestep {timestep:g} s, would stretch to a static strain of about {strain:.3g} under "
+            f"springs: the cable's springs, capped at the stable limit for MuJoCo's timestep {timestep:g} s (stretch "
+            f"{_stiffness(scene, timestep)[0]:.4g} N/m), would stretch to a static strain of about {strain:.3g} under "
             f"{_loads(scene)}, and to about {START_OVERSHOOT * strain:.3g} as the loads start from rest, beyond "
             f"{fail:g} (the physics monitor's failing strain: the cable tears); use {fix} (a static strain within "
             f"{target:g}), or a model with inextensible segments")
