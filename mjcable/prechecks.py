@@ -16,9 +16,9 @@ fix (a ``ValueError`` where no result could be right):
   52 % at 7.6 l₀, ``joints`` and ``composite`` diverge or end up below the floor;
 * **the model's own rule** (its entry's ``check``): ``springs``' static stretch under the capped springs
   (:func:`mjcable.mjcf.springs.precheck`: a ``ValueError`` where the cable would tear, as a rope under the 2 kg box
-  of an Atwood machine through a ring at the default substeps); ``flexrod``'s explicit bending and tension rules are checked by
-  its builder (:mod:`mjcable.mjcf.flexrod`), with the weight of bodies hung on its pins, and its ``precheck``
-  refuses self-collision it cannot do (below); ``joints`` and
+  of an Atwood machine through a ring at the default substeps); ``flexrod``'s explicit bending and tension rules
+  are checked by its builder (:mod:`mjcable.mjcf.flexrod`), with the weight of bodies hung on its pins, and its
+  ``precheck`` refuses self-collision it cannot do (below); ``joints`` and
   ``composite`` need none (their armature keeps the explicit joint springs stable by construction);
 * **the particle solvers' iterations** (:mod:`mjcable.solvers.convergence`): unconverged Gauss-Seidel or Jacobi
   sweeps leave a rod a fraction f of its stated bending stiffness on its lowest mode (warned where its sag 1/f is off
@@ -36,7 +36,8 @@ fix (a ``ValueError`` where no result could be right):
 * **pulleys on a native model without spin** (``springs``' point masses and ``flexrod``'s flex vertices: no frames;
   a pulley of :func:`mjcable.worlds.pulley.add_pulley` in the world): no-slip friction holds the rope's surface at
   the rim, R, to the rim's speed, so its centreline runs at ω R instead of ω (R + r) and the pulley turns faster
-  than the rope runs, by about r / R (measured 0.85–0.97 r / R on an elliptic cone; the acceleration stays right).
+  than the rope runs, by about r / R (measured: the rim ahead of the boxes by 0.85–0.97 r / R on an elliptic cone;
+  the acceleration stays right).
   Beyond :data:`PULLEY_SLIP_TOLERANCE` (the rim's speed equal to the rope's within 1 %) a ``ValueError`` names the
   pulley radius that holds it; within it, a warning;
 * **rings on a particle solver's sweeps**: the rings' projection after the chains' Gauss-Seidel or Jacobi sweeps
@@ -73,7 +74,7 @@ STIFFNESS_TOLERANCE = 0.1  # a rod whose expected sag is off by more than this f
 #: the rim's speed over the rope's, less 1, beyond which a pulley on a model without spin is refused (the issue's bar)
 PULLEY_SLIP_TOLERANCE = 0.01
 #: what :func:`_spinless_pulleys` refuses with (docs/measurements.md, 2026-11-27: the Atwood machine over a pulley)
-PULLEY_MEASURED = ("measured on the Atwood machine over a pulley: the rim ahead of the rope by 0.85-0.97 r / R on an "
+PULLEY_MEASURED = ("measured on the Atwood machine over a pulley: the rim ahead of the boxes by 0.85-0.97 r / R on an "
                    "elliptic friction cone, 0.5-0.8 r / R on the pyramidal one")
 MAX_SUBSTEP_FACTOR = 256  # the most substeps (times the given ones) a fix suggests; beyond, only another order
 #: what :func:`_rings` warns with (docs/measurements.md, 2026-11-27: the Atwood machine through a ring)

@@ -48,8 +48,8 @@ STRAIN_WARNING = 0.025
 HANGING_SLOPE = 45.0  # degrees from the horizontal: an unpinned cable most of whose start segments are steeper hangs
 
 __all__ = ["Rows", "sweep_map", "static_response", "bending_fraction", "stretch_strain", "static_strain",
-           "hung_masses", "hanging_support", "hangs", "strain_estimate", "strain_within", "resolve_iterations", "MAX_SEGMENTS",
-           "STRAIN_WARNING", "HANGING_SLOPE"]
+           "hung_masses", "hanging_support", "hangs", "strain_estimate", "strain_within", "resolve_iterations",
+           "MAX_SEGMENTS", "STRAIN_WARNING", "HANGING_SLOPE"]
 
 MAX_SEGMENTS = 400  # the longest chain analysed (a dense map of about 3n × 3n entries, raised by squaring)
 _RIGID = 1e-9  # a lowest eigenvalue of K below this fraction of its largest diagonal term is a rigid motion
