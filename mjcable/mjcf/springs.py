@@ -51,6 +51,10 @@ STRAIN_WARNING = 0.05  # static strain of a nominally inextensible cable beyond 
 # the peak strain over the static one where the loads start from rest on unstretched springs (an undamped spring
 # under a step load; measured 1.4-1.6 on the Atwood machine through a ring, docs/measurements.md, 2026-11-27)
 START_OVERSHOOT = 2.0
+#: what :func:`precheck` warns with for a ring with rim friction (docs/measurements.md, 2026-11-27)
+RING_CREEP = ("measured: boxes of 2 and 1 kg through a ring with μ = 0.3 at 0.85 of the capstan law creep at 12-22 "
+              "mm/s over 0.3-1 s at 80 to 640 substeps, 2.6 cm in all, where the other models hold within 2 mm/s; "
+              "lighter loads hold sooner")
 _AXES = np.eye(3)
 
 
@@ -110,8 +114,14 @@ def precheck(scene: Scene, settings, dt: float) -> None:
     inextensible cable) at :data:`START_OVERSHOOT` times it, a cable that starts hanging
     (:func:`mjcable.solvers.convergence.hangs`: its loads pull along it) would tear: a ``ValueError`` with the
     substeps that hold it (elsewhere the estimate is an upper bound, and warns). A nominally
-    inextensible cable (``stretch_stiffness=None``) stretched by more than :data:`STRAIN_WARNING` warns with them
-    (the strain falls with the timestep squared)."""
+    inextensible cable (``stretch_stiffness=None``) stretched by more than :data:`STRAIN_WARNING` (a hanging one's
+    :data:`START_OVERSHOOT` times its static strain: its loads bounce it on the soft springs) warns with them (the
+    strain falls with the timestep squared). A ring with rim friction warns that the rope creeps through it
+    (:data:`RING_CREEP`)."""
+    if any(ring.friction > 0.0 for ring in scene.rings):
+        warnings.warn(f"springs: a ring's rim friction holds its rope only after the rope creeps through it while it "
+                      f"settles on the rim ({RING_CREEP}); for a ring that holds at once use joints, composite, flexrod "
+                      f"or a particle solver", PhysicsWarning, stacklevel=4)
     timestep = dt / settings.substeps
     strain = static_strain(scene, timestep)
     if strain is None:
@@ -119,19 +129,22 @@ def precheck(scene: Scene, settings, dt: float) -> None:
     inextensible = scene.cable.stretch_stiffness is None
     promise, fail, _ = monitor.strain_limits(scene, scene.cable.stretch_stiffness)
     target = STRAIN_WARNING if inextensible else promise
-    need = math.ceil(settings.substeps * math.sqrt(strain / target))
+    hanging = convergence.hangs(scene)  # (else the loads pull only partly along it)
+    peak = START_OVERSHOOT * strain if hanging else strain
+    need = math.ceil(settings.substeps * math.sqrt(peak / target))
     fix = (f"substeps >= {need} at dt={dt:g} s" if need <= MAX_SUBSTEPS else
            f"a smaller dt (a MuJoCo timestep of at most {dt / need:.3g} s)")
-    if START_OVERSHOOT * strain > fail and convergence.hangs(scene):  # (else the loads pull only partly along it)
+    if START_OVERSHOOT * strain > fail and hanging:
         raise ValueError(
             f"springs: the cable's springs, capped at the stable limit for MuJoCo's timestep {timestep:g} s (stretch "
             f"{_stiffness(scene, timestep)[0]:.4g} N/m), would stretch to a static strain of about {strain:.3g} under "
-            f"{_loads(scene)}, and to about {START_OVERSHOOT * strain:.3g} as the loads start from rest, beyond "
-            f"{fail:g} (the physics monitor's failing strain: the cable tears); use {fix} (a static strain within "
-            f"{target:g}), or a model with inextensible segments")
-    if inextensible and strain > STRAIN_WARNING:
+            f"{_loads(scene)}, and to about {peak:.3g} as the loads start from rest, beyond {fail:g} (the physics "
+            f"monitor's failing strain: the cable tears); use {fix} (a strain within {target:g}), or a model with "
+            f"inextensible segments")
+    if inextensible and peak > STRAIN_WARNING:
+        start = f", and to about {peak:.3g} as the loads start from rest" if peak > strain else ""
         warnings.warn(f"springs: the inextensible cable's springs, capped at the stable stiffness for timestep "
-                      f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under {_loads(scene)} "
+                      f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under {_loads(scene)}{start} "
                       f"(beyond {STRAIN_WARNING:g}); use {fix}, or a model with inextensible segments", PhysicsWarning,
                       stacklevel=4)
 
