@@ -37,8 +37,8 @@ from mjcable.scene import Scene
 from mjcable.solvers.kernels_layout import (CHECK_DISTANCE, CHECK_NON_FINITE, CHECK_OK, CHECK_PIN, CHECK_SPEED,
                                             CHECK_STRAIN, CHECK_VELOCITY, WARN_DEPTH, WARN_STRAIN)
 
-__all__ = ["Limits", "Breach", "limits", "limits_record", "breach", "fix", "warn", "LIMITS", "MAX_SPEED",
-           "MAX_DISTANCE", "STRAIN_TOLERANCE", "STRAIN_FAIL", "ELASTIC_MARGIN", "TEAR_FRACTION"]
+__all__ = ["Limits", "Breach", "limits", "strain_limits", "limits_record", "breach", "fix", "warn", "LIMITS",
+           "MAX_SPEED", "MAX_DISTANCE", "STRAIN_TOLERANCE", "STRAIN_FAIL", "ELASTIC_MARGIN", "TEAR_FRACTION"]
 
 MAX_SPEED = 200.0  # m/s: a cable particle faster than this has diverged
 MAX_DISTANCE = 1e3  # m from the origin: a particle further away has run off
@@ -100,10 +100,17 @@ def limits(scene: Scene, entry) -> Limits:
     ``stretch_stiffness``, from its ``ignores``) on ``scene``'s cable (see the module docstring)."""
     eas = [None if "stretch_stiffness" in dict(entry.ignores) else c.stretch_stiffness for c in scene.cables]
     ea = None if None in eas else min(eas)  # (several cables: the softest's)
-    static = 0.0 if ea is None else scene.max_tension / ea  # the weight it may carry: its own and its bodies'
+    warn_at, fail_at, static = strain_limits(scene, ea)
     tear = max(max(c.segment_length, TEAR_FRACTION * c.segment_length * c.n_segments) for c in scene.cables)
-    return Limits(strain_warn=max(STRAIN_TOLERANCE, ELASTIC_MARGIN * static),
-                  strain_fail=max(STRAIN_FAIL, 2.0 * ELASTIC_MARGIN * static), tear=tear, static_strain=static)
+    return Limits(strain_warn=warn_at, strain_fail=fail_at, tear=tear, static_strain=static)
+
+
+def strain_limits(scene: Scene, stretch_stiffness: Optional[float]) -> tuple:
+    """``(strain_warn, strain_fail, static_strain)`` of :class:`Limits` for ``scene``'s cable of E·A
+    ``stretch_stiffness`` N (``None``: inextensible); a model's precheck compares its own estimate with them."""
+    # the weight it may carry: its own and its bodies'
+    static = 0.0 if stretch_stiffness is None else scene.max_tension / stretch_stiffness
+    return max(STRAIN_TOLERANCE, ELASTIC_MARGIN * static), max(STRAIN_FAIL, 2.0 * ELASTIC_MARGIN * static), static
 
 
 def limits_record(lim: Limits, dt: float) -> np.ndarray:

@@ -15,9 +15,10 @@ fix (a ``ValueError`` where no result could be right):
   cable: measured on ``hang`` and ``table`` (dt 0.05 to 1 s), ``xpbd`` comes back 1 % long at |g| h² = 1.2 l₀ and
   52 % at 7.6 l₀, ``joints`` and ``composite`` diverge or end up below the floor;
 * **the model's own rule** (its entry's ``check``): ``springs``' static stretch under the capped springs
-  (:func:`mjcable.mjcf.springs.precheck`); ``flexrod``'s explicit bending and tension rules are checked by
-  its builder (:mod:`mjcable.mjcf.flexrod`), with the weight of bodies hung on its pins, and its ``precheck``
-  refuses self-collision it cannot do (below); ``joints`` and
+  (:func:`mjcable.mjcf.springs.precheck`: a ``ValueError`` where the cable would tear, as a rope under the 2 kg box
+  of an Atwood machine through a ring at the default substeps); ``flexrod``'s explicit bending and tension rules
+  are checked by its builder (:mod:`mjcable.mjcf.flexrod`), with the weight of bodies hung on its pins, and its
+  ``precheck`` refuses self-collision it cannot do (below); ``joints`` and
   ``composite`` need none (their armature keeps the explicit joint springs stable by construction);
 * **the particle solvers' iterations** (:mod:`mjcable.solvers.convergence`): unconverged Gauss-Seidel or Jacobi
   sweeps leave a rod a fraction f of its stated bending stiffness on its lowest mode (warned where its sag 1/f is off
@@ -32,9 +33,13 @@ fix (a ``ValueError`` where no result could be right):
   only well below Coulomb's threshold (it slid off at 0.85 of the capstan law, ``docs/measurements.md``). With
   several cables the estimate is not made (each cable's alone would leave out what the cables hang on each other):
   the sweeping orders warn, and the direct order holds every chain at its stated stiffness;
-* **pulleys on** ``flexrod`` (a pulley of :func:`mjcable.worlds.pulley.add_pulley` in the world): its flex vertices
-  carry no spin, so the rim's friction holds the rope's surface rather than its centreline and the pulley turns
-  faster than the rope runs, by about r / R (measured 2.5 % at r / R = 0.025; the acceleration stays right);
+* **pulleys on a native model without spin** (``springs``' point masses and ``flexrod``'s flex vertices: no frames;
+  a pulley of :func:`mjcable.worlds.pulley.add_pulley` in the world): no-slip friction holds the rope's surface at
+  the rim, R, to the rim's speed, so its centreline runs at ω R instead of ω (R + r) and the pulley turns faster
+  than the rope runs, by about r / R (measured: the rim ahead of the boxes by 0.85–0.97 r / R on an elliptic cone;
+  the acceleration stays right).
+  Beyond :data:`PULLEY_SLIP_TOLERANCE` (the rim's speed equal to the rope's within 1 %) a ``ValueError`` names the
+  pulley radius that holds it; within it, a warning;
 * **rings on a particle solver's sweeps**: the rings' projection after the chains' Gauss-Seidel or Jacobi sweeps
   carries heavy loads through a ring only over many iterations, irregularly (:func:`_rings`); the direct order
   converges them (the Atwood machine through a ring within 0.16 % on all three solvers, ``docs/measurements.md``).
@@ -58,14 +63,19 @@ from mjcable import _validate, catalog
 from mjcable.errors import PhysicsWarning
 from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import convergence
-from mjcable.solvers.convergence import HANGING_SLOPE, STRAIN_WARNING, resolve_iterations
+from mjcable.solvers.convergence import HANGING_SLOPE, STRAIN_WARNING, resolve_iterations, resolve_order
 from mjcable.solvers.settings import MAX_AUTO_ITERATIONS
 from mjcable.worlds import pulley
 
-__all__ = ["check", "resolve_iterations", "STRAIN_WARNING", "STIFFNESS_TOLERANCE", "MAX_SUBSTEP_FACTOR",
-           "HANGING_SLOPE"]
+__all__ = ["check", "resolve_order", "resolve_iterations", "STRAIN_WARNING", "STIFFNESS_TOLERANCE",
+           "MAX_SUBSTEP_FACTOR", "HANGING_SLOPE", "PULLEY_SLIP_TOLERANCE"]
 
 STIFFNESS_TOLERANCE = 0.1  # a rod whose expected sag is off by more than this fraction warns
+#: the rim's speed over the rope's, less 1, beyond which a pulley on a model without spin is refused (the issue's bar)
+PULLEY_SLIP_TOLERANCE = 0.01
+#: what :func:`_spinless_pulleys` refuses with (docs/measurements.md, 2026-11-27: the Atwood machine over a pulley)
+PULLEY_MEASURED = ("measured on the Atwood machine over a pulley: the rim ahead of the boxes by 0.85-0.97 r / R on an "
+                   "elliptic friction cone, 0.5-0.8 r / R on the pyramidal one")
 MAX_SUBSTEP_FACTOR = 256  # the most substeps (times the given ones) a fix suggests; beyond, only another order
 #: what :func:`_rings` warns with (docs/measurements.md, 2026-11-27: the Atwood machine through a ring)
 RING_MEASURED = ("the Atwood machine through a ring (2 and 1 kg boxes on a 21 g rope, dt = 2 ms) was 49 % off at 8 "
@@ -86,6 +96,8 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
     Raises:
       ValueError: where the model's own rule says no result can be right.
     """
+    if entry.family == "native" and not entry.frames and scene.world is not None:
+        _spinless_pulleys(scene, entry)  # first: a refusal that no substeps mend
     several = len(scene.cables) > 1
     for c in range(len(scene.cables)):  # several cables: each one's rules (the junctions' loads left out)
         one = scene.cable_scene(c) if several else scene
@@ -99,8 +111,6 @@ def check(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None:
             _rod_iterations(one, entry, settings, dt)
     if entry.family == "particle" and several:
         _several_sweeps(scene, entry, settings)
-    if entry.name == "flexrod" and scene.world is not None:
-        _spinless_pulleys(scene, entry)
     if entry.family == "particle":
         _rings(scene, entry, settings, dt)
     elif scene.rings and scene.world is not None:
@@ -290,10 +300,19 @@ def _pyramidal_rings(scene: Scene, entry: catalog.ModelEntry) -> None:
 
 
 def _spinless_pulleys(scene: Scene, entry: catalog.ModelEntry) -> None:
-    """``flexrod`` with pulleys of :func:`mjcable.worlds.pulley.add_pulley` in the world (module docstring)."""
+    """A native model whose particles carry no spin (no frames: ``springs``' point masses, ``flexrod``'s flex
+    vertices) with pulleys of :func:`mjcable.worlds.pulley.add_pulley` in the world (module docstring): the rim
+    runs ahead of the rope by about r / R, refused beyond :data:`PULLEY_SLIP_TOLERANCE`."""
     radius = max(c.radius for c in scene.cables)
     for body, rim in pulley.pulleys(scene.world.model).items():
-        _warn(f"{entry.name}: its flex vertices carry no spin, so pulley {body!r} (rim radius {rim:g} m) turns faster "
-              f"than the rope runs, by about r / R = {radius / rim:.2g} (friction holds the rope's surface, not its "
-              f"centreline, at the rim); the boxes' acceleration is not affected. For the pulley's speed use joints, "
-              f"composite or a particle solver")
+        ratio = radius / rim
+        why = (f"its particles carry no spin, so the rim's friction holds the rope's surface (at the rim, R = {rim:g} "
+               f"m) rather than its centreline (at R + r, r = {radius:g} m) and pulley {body!r} turns faster than the "
+               f"rope runs, by about r / R = {ratio:.2g}")
+        if ratio > PULLEY_SLIP_TOLERANCE:
+            raise ValueError(
+                f"{entry.name}: {why}, beyond {PULLEY_SLIP_TOLERANCE:g} ({PULLEY_MEASURED}); use a pulley of radius "
+                f"at least r / {PULLEY_SLIP_TOLERANCE:g} = {radius / PULLEY_SLIP_TOLERANCE:.3g} m, or a model whose "
+                f"segments turn with the rim (joints, composite) or a particle solver")
+        _warn(f"{entry.name}: {why} (within {PULLEY_SLIP_TOLERANCE:g}); the boxes' acceleration is not affected. "
+              f"For the pulley's exact speed use joints, composite or a particle solver")

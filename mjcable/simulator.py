@@ -110,6 +110,7 @@ class Simulator:
             raise ValueError(f"scene: the cable starts {far:.6g} m from the origin, beyond the {MAX_DISTANCE:g} m past "
                              "which a particle counts as run off (mjcable.simulator.MAX_DISTANCE); place the scene "
                              "nearer the origin")
+        self.settings = prechecks.resolve_order(scene, entry, self.settings, self.dt)
         self.settings = prechecks.resolve_iterations(scene, entry, self.settings, self.dt)
         prechecks.check(scene, entry, self.settings, self.dt)
         self.scene = scene

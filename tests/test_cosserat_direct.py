@@ -1,5 +1,6 @@
 """The Cosserat rod's direct solves (mjcable.solvers.cosserat_direct_kernels), below the Simulator: the block LDLᵀ
-against numpy's dense solve, a limp rope's stretch–shear-only solve against the full system's, and the nonlinear
+against numpy's dense solve, a limp rope's stretch–shear-only solve against the full system's, its solve with the
+tension's geometric stiffness against a dense solve of its rows and transverse rows, and the nonlinear
 safeguard (mjcable.solvers.cosserat_step_kernels) on a yanked rod and rope: the residuals after the substep."""
 
 import numpy as np
@@ -10,7 +11,8 @@ import mjcable
 from mjcable import catalog
 from mjcable.backends.particle import ParticleBackend
 from mjcable.solvers import cosserat
-from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve
+from mjcable.solvers.chain_solve_kernels import _perpendicular
+from mjcable.solvers.cosserat_direct_kernels import block_ldlt_solve, rod_direct_limp
 from mjcable.solvers.state import darboux
 
 
@@ -52,6 +54,59 @@ def test_a_limp_ropes_stretch_shear_solve_moves_it_as_the_full_system_does(scene
     assert moved > 1e-2  # the rope fell or swung: the comparison is not of a rope at rest
     np.testing.assert_allclose(runs[0][0], runs[1][0], rtol=0.0, atol=1e-9)
     np.testing.assert_allclose(np.abs(np.sum(runs[0][1] * runs[1][1], axis=1)), 1.0, rtol=0.0, atol=1e-9)
+
+
+def _dense_limp_step(a, l0, mu):
+    """A limp rod's direct solve written out densely: (J W Jᵀ + α̃) Δλ = −C of its stretch–shear rows turned into
+    the world frame (∇_{x_{i+1}} = I / l₀ = −∇_{xᵢ}, ∇_{bᵢ} = R [ū]×; hard) and, where ``mu`` (n,) is given, two
+    transverse rows t · (x_{i+1} − xᵢ) / l₀ per segment (t ⊥ its direction, right-hand side 0, compliance 1 / μᵢ: the
+    tension's geometric stiffness); W the particles' and the frames' (body frame) inverse masses. Returns Δx."""
+    n = a.q.shape[0]
+    dof = 3 * (n + 1) + 3 * n
+    rows, rhs, comp = [], [], []
+    turn = Rotation.from_quat(a.q, scalar_first=True).as_matrix()
+    for i in range(n):
+        u = (a.x[i + 1] - a.x[i]) / l0
+        ub = turn[i].T @ u
+        jac = np.zeros((3, dof))
+        jac[:, 3 * i + 3:3 * i + 6], jac[:, 3 * i:3 * i + 3] = np.eye(3) / l0, -np.eye(3) / l0
+        jac[:, 3 * (n + 1) + 3 * i:3 * (n + 1) + 3 * i + 3] = turn[i] @ np.cross(np.eye(3), ub)
+        rows.append(jac)
+        rhs.append(turn[i] @ ([0.0, 0.0, 1.0] - ub))
+        comp += [0.0] * 3
+        for k in range(2 if mu is not None else 0):
+            t = np.array(_perpendicular(*(u / np.linalg.norm(u)), k))
+            jt = np.zeros((1, dof))
+            jt[0, 3 * i + 3:3 * i + 6], jt[0, 3 * i:3 * i + 3] = t / l0, -t / l0
+            rows.append(jt)
+            rhs.append([0.0])
+            comp.append(1.0 / mu[i])
+    jac = np.vstack(rows)
+    w = np.concatenate([np.repeat(a.w, 3), a.wq.ravel()])
+    dlam = np.linalg.solve(jac @ (w[:, None] * jac.T) + np.diag(comp), np.concatenate(rhs))
+    return (w * (jac.T @ dlam))[:3 * (n + 1)].reshape(n + 1, 3)
+
+
+def test_a_taut_ropes_solve_carries_the_geometric_stiffness_of_its_tension():
+    """Where the tension is stiff (``gs_stiff``) a limp rod's block solve condenses two transverse rows per segment
+    (compliance 1 / μ, μ = −λ₂ its last tension multiplier; Tournier et al. 2015) into its blocks: it must move the
+    particles as the dense solve of the rod's rows with those rows does, on a rope off its rest shape."""
+    cable = mjcable.CableSpec([[0.0, 0.0, 0.0], [0.0, 0.12, 0.0]], 6, 0.015, 0.012)
+    scene = mjcable.Scene(cable, (mjcable.Pin(0),))
+    backend = ParticleBackend(scene, catalog.get("cosserat"), 0.002, catalog.make_settings("cosserat"))
+    a, l0 = backend.arrays, cable.segment_length
+    rng = np.random.default_rng(7)
+    a.x[1:] += rng.normal(scale=1e-3, size=a.x[1:].shape)  # segments off their frames and their length
+    a.q[:] += rng.normal(scale=0.02, size=a.q.shape)
+    a.q[:] /= np.linalg.norm(a.q, axis=1)[:, None]
+    mu = rng.uniform(2e-6, 6e-6, size=6)  # −λ₂: 1 to 3 kN at h = 0.5 ms
+    a.lam_gs[:] = -mu / l0  # (kept as xpbd's stretch multipliers, λ₂ / l₀)
+    a.par[0]["gs_stiff"] = True
+    x0 = a.x.copy()
+    with_rows, without = _dense_limp_step(a, l0, mu), _dense_limp_step(a, l0, None)
+    rod_direct_limp(backend.state, backend.h**2)
+    assert np.abs(with_rows - without).max() > 1e-4  # the transverse rows change the step
+    np.testing.assert_allclose(a.x - x0, with_rows, rtol=0.0, atol=1e-10)
 
 
 def _residual(backend, scene) -> tuple:

@@ -3,6 +3,7 @@ scene warns with a :class:`mjcable.PhysicsWarning` when the Simulator is made, a
 what the model then does (a property it says it ignores changes nothing; a stretch or a sag it predicts is the one
 measured) and against the physics (catenary tension, beam theory)."""
 
+import dataclasses
 import math
 import warnings
 
@@ -164,6 +165,28 @@ def test_a_stretch_under_the_weight_warns_and_is_the_one_measured(model):
     assert _max_strain(sim) < warned_beyond * top / carried
 
 
+def test_springs_refuses_a_hanging_cable_its_capped_springs_would_tear_and_warns_a_lying_one():
+    """The same 1 m, 0.1 kg rod (E = 10⁵ Pa: its bending springs capped too) at dt = 0.05 s on springs' default 10
+    substeps: the straight chain of springs k₁ + 4 k₂ per segment (a cut crosses one stretch and two bending
+    springs) carries its whole weight at the pin with a static strain of about 0.97, twice that as it is let go.
+    Hanging from its pin it tears (measured: strain 1.09 at 0.35 s, docs/measurements.md), so it is refused; lying
+    clamped and horizontal its weight pulls only partly along it (measured: 0.92 at most), so it only warns."""
+    from mjcable.bench.scenarios import cantilever_scene
+
+    lying = cantilever_scene(50, young=1e5)
+    top = lying.cable.particles[0]
+    hanging = Scene(dataclasses.replace(lying.cable, points=np.array([top, top - [0.0, 0.0, 1.0]])), pins=(Pin(0),))
+    h = 0.05 / 10
+    limit = 0.25 * lying.cable.mass / (50 * h * h)  # springs' stability rule: k₁ + k₂, k₂ capped at its half
+    below = lying.cable.mass * (1.0 - 0.5 / 50)  # all but the pinned end particle's half segment
+    expected = below * 9.81 / ((0.5 * limit + 4.0 * 0.5 * limit) * lying.cable.segment_length)
+    with pytest.raises(ValueError, match=r"^springs: .*static strain of about (\S+) .*the cable tears") as err:
+        mjcable.Simulator(hanging, "springs", dt=0.05)
+    assert float(str(err.value).split("static strain of about ")[1].split()[0]) == pytest.approx(expected, rel=0.01)
+    _, said = _build(lying, "springs", dt=0.05)
+    assert [m for m in said if "static strain of about" in m]
+
+
 @pytest.mark.parametrize("model", PARTICLE)
 def test_the_default_iterations_keep_an_inextensible_cable_within_its_promise(model):
     """``iterations=None`` (the default) takes the fewest iterations whose estimate is within the warning: none
@@ -263,3 +286,22 @@ def test_several_cables_in_sweeping_orders_warn_that_no_strain_estimate_is_made(
     assert bool(said) == warns
     if warns:
         assert f"order={order!r}" in said[0] and "use order='direct'" in said[0]
+
+
+def test_the_default_order_of_pbd_and_jakobsen_is_direct_where_the_sweeps_cant_carry_the_scene():
+    """``order=None`` takes Gauss-Seidel sweeps on a hanging cable (one iteration keeps it within its promise) and the
+    direct order with several cables, a winch or a ring (module docstring of ``resolve_order``); an order given
+    stays as it is."""
+    from mjcable.bench import ring
+
+    hang = mjcable.scenes.get("hang")
+    two = Scene((CableSpec([(-0.3, 0.0, 1.0), (0.3, 0.0, 1.0)], 20, 0.003, 0.02),
+                 CableSpec([(-0.3, 0.2, 1.0), (0.3, 0.2, 1.0)], 20, 0.003, 0.02)), (Pin(0), Pin(-1)))
+    winch = dataclasses.replace(hang, pins=(Pin(5, "winch"),))
+    for model in ("pbd", "jakobsen"):
+        assert mjcable.Simulator(hang, model).settings.order == "gauss-seidel"
+        for scene in (two, winch, ring.atwood_scene()):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", mjcable.PhysicsWarning)
+                assert mjcable.Simulator(scene, model).settings.order == "direct", (model, scene.name)
+                assert mjcable.Simulator(scene, model, order="jacobi").settings.order == "jacobi"

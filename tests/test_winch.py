@@ -8,9 +8,9 @@ the spool, ρ v² = 5 mN, is 4e-4 of it); the rope's mass per metre from the pul
 (F₀ − F₁) / (g ΔL), is ρ (within 1 %); paying 0.3 m out puts the box back at its start (within 3 mm). The box's
 height is MuJoCo's (the user world's body), the pull the winch's pin force.
 
-``jakobsen`` and ``pbd`` run in the direct order: in their default Gauss-Seidel order one iteration leaves the loaded
-rope 1.2 % long and the undamped box bouncing on it (their convergence, with or without a winch; the direct order
-holds a stretch chain inextensible).
+``jakobsen`` and ``pbd`` take the direct order with a winch (their automatic order): on Gauss-Seidel sweeps one
+iteration leaves the loaded rope 1.2 % long and the undamped box bouncing on it (their convergence, with or without a
+winch; the direct order holds a stretch chain inextensible).
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ def _check(result: winch.Measurement) -> None:
 
 @pytest.mark.parametrize("model, settings", [
     ("xpbd", {}),
-    pytest.param("pbd", {"order": "direct"}, marks=pytest.mark.slow),
-    pytest.param("jakobsen", {"order": "direct"}, marks=pytest.mark.slow),
+    pytest.param("pbd", {}, marks=pytest.mark.slow),  # the defaults take the direct order with a winch
+    pytest.param("jakobsen", {}, marks=pytest.mark.slow),
 ])
 def test_a_winch_lifts_a_box_and_lowers_it_again(model, settings):
     run = winch.run_lift(model, **settings)
@@ -170,7 +170,7 @@ LIGHT_ROPE = 1e-3  # kg/m: 1.4 g of rope against 3 kg of bodies
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model, settings", [("xpbd", {}), ("pbd", {"order": "direct"})])
+@pytest.mark.parametrize("model, settings", [("xpbd", {}), ("pbd", {})])
 def test_a_winch_on_a_body_pulls_it_with_the_cable_keeping_the_centre_of_mass(model, settings):
     """A drum of 2 kg reels in 0.3 m of the rope to a 1 kg box, both free in zero gravity: they approach by 0.3 m
     (an inextensible rope) with their centre of mass where it was (no outside force), so the drum moves a third of

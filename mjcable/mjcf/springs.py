@@ -18,7 +18,9 @@ Mapping from the physical cable:
   capped there with a :class:`~mjcable.errors.PhysicsWarning`. The static strain under tension T is then
   T / (k₁ l₀) ∝ h², which is why the model defaults to 10 MuJoCo steps per ``dt``; a Simulator warns when that
   strain under the cable's weight and what bodies hang on its pins would exceed :data:`STRAIN_WARNING` for a
-  nominally inextensible cable (:func:`precheck`);
+  nominally inextensible cable, and refuses a scene whose loads, let go at rest, would stretch it beyond the
+  physics monitor's failing strain (:func:`precheck`: boxes of 2 and 1 kg on a light rope through a ring at the
+  default substeps);
 * contacts: sphere geoms of the cable radius; the obstacles get a stiff contact time constant
   (:func:`mjcable.mjcf.world.stiffen_obstacle_contacts`), without which the spheres sink through a thin plate and
   chatter as they slide.
@@ -33,18 +35,26 @@ from typing import Optional
 import mujoco
 import numpy as np
 
+from mjcable import monitor
 from mjcable._validate import MAX_SUBSTEPS
 from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 from mjcable.solvers import convergence
 
-__all__ = ["build", "spring_stiffness", "precheck", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE",
-           "STRAIN_WARNING"]
+__all__ = ["build", "spring_stiffness", "static_strain", "precheck", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE",
+           "STRAIN_WARNING", "START_OVERSHOOT"]
 
 STABILITY_FRACTION = 0.25  # of the semi-implicit Euler limit k < m / (n h²); a chain just above it jitters
 BEND_REFERENCE_ANGLE = 1.0  # rad, where next-neighbour spring energy equals E·I θ² / (2 l₀)
 STRAIN_WARNING = 0.05  # static strain of a nominally inextensible cable beyond which a Simulator warns
+# the peak strain over the static one where the loads start from rest on unstretched springs (an undamped spring
+# under a step load; measured 1.4-1.6 on the Atwood machine through a ring, docs/measurements.md, 2026-11-27)
+START_OVERSHOOT = 2.0
+#: what :func:`precheck` warns with for a ring with rim friction (docs/measurements.md, 2026-11-27)
+RING_CREEP = ("measured: boxes of 2 and 1 kg through a ring with μ = 0.3 at 0.85 of the capstan law creep at 12-22 "
+              "mm/s over 0.3-1 s at 80 to 640 substeps, 2.6 cm in all, where the other models hold within 2 mm/s; "
+              "lighter loads hold sooner")
 _AXES = np.eye(3)
 
 
@@ -86,29 +96,66 @@ def spring_stiffness(scene: Scene, timestep: float) -> tuple:
 
 def static_strain(scene: Scene, timestep: float) -> Optional[float]:
     """The largest static strain of the stretch springs at MuJoCo ``timestep`` (s) under the cable's weight along it
-    and the bodies hung on its pins (:func:`mjcable.solvers.convergence.static_strain`; a hanging catenary carries
-    about 1.2 times that at its pins); ``None`` where no pin holds the cable."""
-    k_stretch = _stiffness(scene, timestep)[0]
-    return convergence.static_strain(scene, 1.0 / k_stretch, hung=convergence.hung_masses(scene))
+    and the bodies hung on its pins, held by its pins or, where bodies alone hang on it, at its highest particle
+    (:func:`mjcable.solvers.convergence.static_strain` and :func:`~mjcable.solvers.convergence.hanging_support`: a
+    rope over a pulley or through a ring carries the heavier box's weight beside it; a hanging catenary carries
+    about 1.2 times the estimate at its pins); ``None`` where nothing holds the cable. The bending springs carry
+    their share of a straight cable's tension: a cut crosses one stretch spring and two bending springs, each
+    stretched over twice the length, so the cable's axial stiffness per segment is k₁ + 4 k₂."""
+    k_stretch, k_bend = _stiffness(scene, timestep)[:2]
+    return convergence.static_strain(scene, 1.0 / (k_stretch + 4.0 * k_bend), hung=convergence.hung_masses(scene),
+                                     support=convergence.hanging_support(scene))
 
 
 def precheck(scene: Scene, settings, dt: float) -> None:
-    """The model's rule at construction (the catalogue's ``check``): a nominally inextensible cable
-    (``stretch_stiffness=None``) whose springs, capped by the stability rule at MuJoCo's timestep ``dt /
-    substeps``, would stretch by more than :data:`STRAIN_WARNING` under the scene's load warns with the substeps that
-    bring it within (the strain falls with the timestep squared)."""
-    if scene.cable.stretch_stiffness is not None:
-        return  # an elastic cable's springs are its E·A, or capped with their own warning at build
+    """The model's rule at construction (the catalogue's ``check``): the static strain of the springs, capped by the
+    stability rule at MuJoCo's timestep ``dt / substeps``, under the scene's loads (:func:`static_strain`). Beyond
+    the physics monitor's failing strain (:func:`mjcable.monitor.strain_limits`: twice the rest length for an
+    inextensible cable) at :data:`START_OVERSHOOT` times it, a cable that starts hanging
+    (:func:`mjcable.solvers.convergence.hangs`: its loads pull along it) would tear: a ``ValueError`` with the
+    substeps that hold it (elsewhere the estimate is an upper bound, and warns). A nominally
+    inextensible cable (``stretch_stiffness=None``) stretched by more than :data:`STRAIN_WARNING` (a hanging one's
+    :data:`START_OVERSHOOT` times its static strain: its loads bounce it on the soft springs) warns with them (the
+    strain falls with the timestep squared). A ring with rim friction warns that the rope creeps through it
+    (:data:`RING_CREEP`)."""
+    if any(ring.friction > 0.0 for ring in scene.rings):
+        warnings.warn(f"springs: a ring's rim friction holds its rope only after the rope creeps through it while it "
+                      f"settles on the rim ({RING_CREEP}); for a ring that holds at once use joints, composite, flexrod "
+                      f"or a particle solver", PhysicsWarning, stacklevel=4)
     timestep = dt / settings.substeps
     strain = static_strain(scene, timestep)
-    if strain is not None and strain > STRAIN_WARNING:
-        need = math.ceil(settings.substeps * math.sqrt(strain / STRAIN_WARNING))
-        fix = (f"substeps >= {need} at dt={dt:g} s" if need <= MAX_SUBSTEPS else
-               f"a smaller dt (a MuJoCo timestep of at most {dt / need:.3g} s)")
+    if strain is None:
+        return
+    inextensible = scene.cable.stretch_stiffness is None
+    promise, fail, _ = monitor.strain_limits(scene, scene.cable.stretch_stiffness)
+    target = STRAIN_WARNING if inextensible else promise
+    hanging = convergence.hangs(scene)  # (else the loads pull only partly along it)
+    peak = START_OVERSHOOT * strain if hanging else strain
+    need = math.ceil(settings.substeps * math.sqrt(peak / target))
+    fix = (f"substeps >= {need} at dt={dt:g} s" if need <= MAX_SUBSTEPS else
+           f"a smaller dt (a MuJoCo timestep of at most {dt / need:.3g} s)")
+    if START_OVERSHOOT * strain > fail and hanging:
+        raise ValueError(
+            f"springs: the cable's springs, capped at the stable limit for MuJoCo's timestep {timestep:g} s (stretch "
+            f"{_stiffness(scene, timestep)[0]:.4g} N/m), would stretch to a static strain of about {strain:.3g} under "
+            f"{_loads(scene)}, and to about {peak:.3g} as the loads start from rest, beyond {fail:g} (the physics "
+            f"monitor's failing strain: the cable tears); use {fix} (a strain within {target:g}), or a model with "
+            f"inextensible segments")
+    if inextensible and peak > STRAIN_WARNING:
+        start = f", and to about {peak:.3g} as the loads start from rest" if peak > strain else ""
         warnings.warn(f"springs: the inextensible cable's springs, capped at the stable stiffness for timestep "
-                      f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under its weight (beyond "
-                      f"{STRAIN_WARNING:g}); use {fix}, or a model with inextensible segments", PhysicsWarning,
+                      f"{timestep:g} s, stretch to a static strain of about {strain:.3g} under {_loads(scene)}{start} "
+                      f"(beyond {STRAIN_WARNING:g}); use {fix}, or a model with inextensible segments", PhysicsWarning,
                       stacklevel=4)
+
+
+def _loads(scene: Scene) -> str:
+    """The loads of :func:`static_strain` in words."""
+    hung = float(np.sum(convergence.hung_masses(scene)))
+    support = convergence.hanging_support(scene)
+    bodies = f" and {hung:.3g} kg of bodies on its pins" if hung > 0.0 else ""
+    held = "" if support is None else f", held where it hangs (particle {support}, its highest)"
+    return f"its weight{bodies}{held}"
 
 
 def build(scene: Scene, *, timestep: float, self_collision: bool = False) -> mujoco.MjSpec:

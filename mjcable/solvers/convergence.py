@@ -48,8 +48,8 @@ STRAIN_WARNING = 0.025
 HANGING_SLOPE = 45.0  # degrees from the horizontal: an unpinned cable most of whose start segments are steeper hangs
 
 __all__ = ["Rows", "sweep_map", "static_response", "bending_fraction", "stretch_strain", "static_strain",
-           "hung_masses", "hanging_support", "strain_estimate", "strain_within", "resolve_iterations", "MAX_SEGMENTS",
-           "STRAIN_WARNING", "HANGING_SLOPE"]
+           "hung_masses", "hanging_support", "hangs", "strain_estimate", "strain_within", "resolve_order",
+           "resolve_iterations", "MAX_SEGMENTS", "STRAIN_WARNING", "HANGING_SLOPE"]
 
 MAX_SEGMENTS = 400  # the longest chain analysed (a dense map of about 3n × 3n entries, raised by squaring)
 _RIGID = 1e-9  # a lowest eigenvalue of K below this fraction of its largest diagonal term is a rigid motion
@@ -324,13 +324,16 @@ def _stated_strains(scene: Scene, alpha: float, mass: np.ndarray, free: np.ndarr
     return np.diff(y) / l0
 
 
-def static_strain(scene: Scene, compliance: float, *, hung: Optional[np.ndarray] = None) -> Optional[float]:
+def static_strain(scene: Scene, compliance: float, *, hung: Optional[np.ndarray] = None,
+                  support: Optional[int] = None) -> Optional[float]:
     """The largest static strain of the cable as a straight chain of stretch springs of ``compliance`` (m/N, 1/k)
-    under its weight along it (and ``hung`` (n + 1,) kg on its pins), held by its pins: what a converged model with
-    that stretch stiffness gives (m g / 2 at each end of a cable held at both; a hanging catenary carries about 1.2
-    times that at its pins). ``None`` where no pin holds the cable."""
+    under its weight along it (and ``hung`` (n + 1,) kg on its pins), held by its pins and at particle ``support``
+    (:func:`hanging_support`: a rope over a pulley or through a ring, its boxes held still): what a converged model
+    with that stretch stiffness gives (m g / 2 at each end of a cable held at both; a hanging catenary carries about
+    1.2 times that at its pins; the heavier box's weight and its leg's beside a support). ``None`` where nothing
+    holds the cable."""
     hung = np.zeros(scene.cable.n_particles) if hung is None else hung
-    _, mass, free = _chain(scene, hung)
+    _, mass, free = _chain(scene, hung, support)
     if free.all():
         return None
     return float(np.max(np.abs(_stated_strains(scene, compliance, mass, free))))
@@ -339,22 +342,25 @@ def static_strain(scene: Scene, compliance: float, *, hung: Optional[np.ndarray]
 def hanging_support(scene: Scene) -> Optional[int]:
     """The particle a cable hangs from, where it starts hanging from an obstacle: its highest particle, if no pin
     holds it in place (no pins, or only body pins whose bodies hang on it: boxes at the ends of a rope over a
-    pulley), the scene has obstacles or a user world, and most of its start segments are steeper than
-    :data:`HANGING_SLOPE` (a rope over a peg, a cable draped over a bar); else ``None``."""
+    pulley), the scene has obstacles or a user world, and it :func:`hangs` (a rope over a peg, a cable draped over
+    a bar); else ``None``."""
     weights = scene.hanging_weights if scene.pins else np.zeros(0)
     held = any(not pin.on_body or weight == 0.0 for pin, weight in zip(scene.pins, weights))
-    if held or not (scene.obstacles or scene.world is not None):
+    if held or not (scene.obstacles or scene.world is not None) or not hangs(scene):
         return None
-    x = np.asarray(scene.cable.particles, dtype=np.float64)
-    d = np.diff(x, axis=0)
+    return int(np.argmax(np.asarray(scene.cable.particles, dtype=np.float64) @ -scene.gravity))
+
+
+def hangs(scene: Scene) -> bool:
+    """Whether the cable starts hanging: most of its start segments steeper than :data:`HANGING_SLOPE` (its weight,
+    and what hangs on it, pull along it; ``False`` without gravity)."""
+    d = np.diff(np.asarray(scene.cable.particles, dtype=np.float64), axis=0)
     up = -np.asarray(scene.gravity, dtype=np.float64)
     norm = float(np.linalg.norm(up))
     if norm == 0.0:
-        return None
+        return False
     rise = np.abs(d @ (up / norm)) / np.maximum(np.linalg.norm(d, axis=1), 1e-300)
-    if np.mean(rise > math.sin(math.radians(HANGING_SLOPE))) <= 0.5:
-        return None
-    return int(np.argmax(x @ up))
+    return bool(np.mean(rise > math.sin(math.radians(HANGING_SLOPE))) > 0.5)
 
 
 def strain_estimate(scene: Scene, entry, dt: float):
@@ -373,6 +379,24 @@ def strain_estimate(scene: Scene, entry, dt: float):
 def strain_within(expected: Optional[float]) -> bool:
     """Whether an estimate of :func:`strain_estimate` is within :data:`STRAIN_WARNING` (``None``: nothing to say)."""
     return expected is None or expected <= STRAIN_WARNING
+
+
+def resolve_order(scene: Scene, entry, settings, dt: float):
+    """``settings`` with ``order=None`` (``pbd``'s and ``jakobsen``'s default) replaced by the order the Simulator
+    takes: ``"direct"`` where Gauss-Seidel sweeps can't carry the scene at the model's stated stiffness, else
+    ``"gauss-seidel"``. The sweeps can't carry rings (their projection after the chains carries the loads either side
+    only over many, irregular iterations), winches (the loaded rope stays long and its load bounces), several cables
+    (a cable pinned taut under another sags; no strain estimate is made for them) or a cable whose expected static
+    strain under its loads stays beyond :data:`STRAIN_WARNING` at :data:`MAX_AUTO_ITERATIONS` iterations (or the
+    iterations the user gave): measured in ``docs/measurements.md``. Other settings are returned as they are."""
+    if entry.family != "particle" or settings.order is not None:
+        return settings
+    direct = dataclasses.replace(settings, order="direct")
+    if scene.rings or len(scene.cables) > 1 or any(pin.kind == "winch" for pin in scene.pins):
+        return direct
+    sweeps = dataclasses.replace(settings, order="gauss-seidel")
+    most = sweeps if sweeps.iterations is not None else dataclasses.replace(sweeps, iterations=MAX_AUTO_ITERATIONS)
+    return sweeps if strain_within(strain_estimate(scene, entry, dt)(most)) else direct
 
 
 def resolve_iterations(scene: Scene, entry, settings, dt: float):

@@ -74,6 +74,7 @@ def compliances(scene: Scene) -> tuple:
 def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     """The kernels' parameters of ``cosserat`` for ``scene`` (see the module docstring)."""
     del settings, h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
+    limp = max(*scene.cables[0].bending_stiffnesses, scene.cables[0].torsion_stiffness) <= _LIMP
     return Rules(verlet_start=False, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0, k_stretch=1.0, k_bend=1.0,
-                 k_clamp=1.0, bending="none", rod_compliance=compliances(scene),
-                 rod_limp=max(*scene.cables[0].bending_stiffnesses, scene.cables[0].torsion_stiffness) <= _LIMP)
+                 k_clamp=1.0, bending="none", rod_compliance=compliances(scene), rod_limp=limp,
+                 geometric_stiffness=limp)

@@ -17,8 +17,25 @@ gᵢ = Sᵢ⁻¹ (rᵢ + cᵢ g_{i−1}) (cᵢ = wᵢ / l₀², rᵢ = R (−C �
 then applied as in :func:`mjcable.solvers.cosserat_kernels.rod_direct`: λ += Rᵀ Δλ′, Δx_{i+1} = w_{i+1} Δλ′ / l₀,
 Δxᵢ = −wᵢ Δλ′ / l₀ (a held particle collects ±Δλ′ / l₀ in ``react``), δbᵢ = D [ū]×ᵀ Rᵀ Δλ′.
 
+Where the tension is stiff (``par.gs_stiff``: its transverse waves cross more than ``_GEOMETRIC_COURANT`` of a
+segment per substep, as for ``xpbd``'s chain, :func:`mjcable.solvers.direct_kernels._tension_is_stiff`), each
+segment in tension also carries its stretch row's geometric stiffness ([T15]), as ``xpbd``'s transverse rows do. In
+the rod it is the mixed term of −λ₂ ∇²C₂ (C₂ = d₃(q) · (x_{i+1} − xᵢ) / l₀ − 1 is linear in x; its force turns with
+the frame): with μ = −λ₂ > 0, u the ends' relative move and v = δφ × d₃ the frame's turn of d₃, the form
+μ (|u⊥|² / l₀² − |v − u⊥ / l₀|²), whose second part, a negative shear stiffness, vanishes where the shear rows
+hold (hard for a rope) and is dropped. The first is a pair of rows C⊥ = t · (x_{i+1} − xᵢ) / l₀ (t ⊥ n, the segment's
+direction, C⊥ = 0 where linearised) of compliance α̃⊥ = 1 / μ on the particles only, ``xpbd``'s transverse rows in
+the rod's scaling. They are condensed into the segment's block before the pass down the rod (the neighbours share
+only particles): with B = Aᵢᵢ − s I the segment's own block, U = [t₀ t₁], V = B U and Σ = α̃⊥ I₂ + Uᵀ V, the
+particles' impulse pᵢ = Δλ′ᵢ + U γᵢ (rod rows and transverse rows together) solves the same block tridiagonal
+system with Aᵢᵢ = s I + B − V Σ⁻¹ Vᵀ and rᵢ ← rᵢ − V Σ⁻¹ Uᵀ rᵢ, and then Δλ′ᵢ = pᵢ − U Σ⁻¹ (Vᵀ pᵢ − Uᵀ rᵢ) turns the
+frame and adds to λ while pᵢ moves the particles (a held one's reaction takes it, the turn of the tension's force
+over the step). The multipliers μ are the last solve's (``lam_gs``, λ₂ / l₀: the previous substep's in a substep's
+first solve).
+
 The scratch lives in the banded solve's arrays (unused by this one): ``cs_band[i]`` holds Sᵢ⁻¹ (xx, yy, zz, xy, xz,
-yz) and gᵢ, ``cs_band[n + i]`` R row by row, ``cs_band[2n + i, :3]`` ū.
+yz) and gᵢ, ``cs_band[n + i]`` R row by row, ``cs_band[2n + i, :3]`` ū, and a segment with transverse rows
+``cs_band[3n + i]`` the map I − U Σ⁻¹ Vᵀ row by row and ``cs_band[4n + i]`` U Σ⁻¹ Uᵀ rᵢ and a 1 (none: 0).
 """
 
 from __future__ import annotations
@@ -26,7 +43,11 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
+from mjcable.solvers.chain_solve_kernels import _perpendicular
 from mjcable.solvers.constraint_kernels import push as _push
+from mjcable.solvers.direct_kernels import _tension_is_stiff
+
+# [T15] M. Tournier, M. Nesme, B. Gilles, F. Faure, "Stable Constrained Dynamics", ACM TOG 34(4), 2015.
 
 __all__ = ["rod_direct_limp", "block_ldlt_solve", "block_ldlt_factor", "block_ldlt_substitute"]
 
@@ -40,6 +61,7 @@ def rod_direct_limp(S, h2):
     P = S.par[0]
     inv_l0sq = S.cable_par[0].inv_l0sq
     inv_l0 = math.sqrt(inv_l0sq)
+    stiff = P.gs_stiff
     a0, a1, a2 = P.ss_alpha1 / h2, P.ss_alpha2 / h2, P.ss_alpha3 / h2
     x, w, q, wq, lam, react, sc = S.x, S.w, S.q, S.wq, S.lam_ss, S.react, S.cs_band
     n = q.shape[0]
@@ -84,6 +106,13 @@ def rod_direct_limp(S, h2):
         A01 = t00 * r10 + t01 * r11 + t02 * r12
         A02 = t00 * r20 + t01 * r21 + t02 * r22
         A12 = t10 * r20 + t11 * r21 + t12 * r22
+        if stiff:
+            sc[4 * n + i, 3] = 0.0
+            if S.lam_gs[i] < 0.0 and S.seg_cable[i] >= 0:  # the transverse rows of its tension (module docstring)
+                A00, A11, A22, A01, A02, A12, rx, ry, rz = _condense_transverse(
+                    sc, n, i, (A00 - s, A11 - s, A22 - s, A01, A02, A12), (rx, ry, rz), (ux, uy, uz),
+                    inv_l0 / -S.lam_gs[i])
+                A00, A11, A22 = A00 + s, A11 + s, A22 + s
         if i > 0:  # the Schur complement of the segment before (sharing particle i)
             c = w[i] * inv_l0sq
             cc = c * c
@@ -127,10 +156,16 @@ def rod_direct_limp(S, h2):
                           sc[i, 8] + sc[i, 4] * lx + sc[i, 5] * ly + sc[i, 2] * lz)
         else:
             lx, ly, lz = sc[i, 6], sc[i, 7], sc[i, 8]
+        ax, ay, az = lx, ly, lz  # Δλ′: the particles' impulse, less the transverse rows' where it has them
+        if stiff and sc[4 * n + i, 3] != 0.0:
+            j, k = 3 * n + i, 4 * n + i
+            ax = sc[j, 0] * lx + sc[j, 1] * ly + sc[j, 2] * lz + sc[k, 0]
+            ay = sc[j, 3] * lx + sc[j, 4] * ly + sc[j, 5] * lz + sc[k, 1]
+            az = sc[j, 6] * lx + sc[j, 7] * ly + sc[j, 8] * lz + sc[k, 2]
         j = n + i
-        m0 = sc[j, 0] * lx + sc[j, 3] * ly + sc[j, 6] * lz  # Δλ = Rᵀ Δλ′ (material)
-        m1 = sc[j, 1] * lx + sc[j, 4] * ly + sc[j, 7] * lz
-        m2 = sc[j, 2] * lx + sc[j, 5] * ly + sc[j, 8] * lz
+        m0 = sc[j, 0] * ax + sc[j, 3] * ay + sc[j, 6] * az  # Δλ = Rᵀ Δλ′ (material)
+        m1 = sc[j, 1] * ax + sc[j, 4] * ay + sc[j, 7] * az
+        m2 = sc[j, 2] * ax + sc[j, 5] * ay + sc[j, 8] * az
         lam[i, 0] += m0
         lam[i, 1] += m1
         lam[i, 2] += m2
@@ -151,7 +186,48 @@ def rod_direct_limp(S, h2):
         inv = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
         q[i, 0], q[i, 1], q[i, 2], q[i, 3] = nw * inv, nx * inv, ny * inv, nz * inv
     _push(x, react, w[0], 0, -px, -py, -pz)
+    if P.geometric:  # the next solve's transverse rows, from these multipliers as xpbd's chain's (λ₂ / l₀)
+        for i in range(n):
+            S.lam_gs[i] = lam[i, 2] * inv_l0
+        P.gs_stiff = _tension_is_stiff(S.lam_gs, S.rest, w)
     P.direct_solves += 1
+
+
+@_inline
+def _condense_transverse(sc, n, i, b, r, u, alpha):
+    """Condense segment i's two transverse rows (compliance ``alpha`` = α̃⊥ = 1 / μ, across ``u`` = ū) into its
+    block (see the module docstring): from B (``b``: xx, yy, zz, xy, xz, yz) and r (``r``) returns B − V Σ⁻¹ Vᵀ
+    (the same six) and r − V Σ⁻¹ Uᵀ r, and stores I − U Σ⁻¹ Vᵀ in ``sc[3n + i]`` and U Σ⁻¹ Uᵀ r, 1 in
+    ``sc[4n + i]``."""
+    b00, b11, b22, b01, b02, b12 = b
+    rx, ry, rz = r
+    norm = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    t0 = _perpendicular(u[0] / norm, u[1] / norm, u[2] / norm, 0)
+    t1 = _perpendicular(u[0] / norm, u[1] / norm, u[2] / norm, 1)
+    v0 = (b00 * t0[0] + b01 * t0[1] + b02 * t0[2], b01 * t0[0] + b11 * t0[1] + b12 * t0[2],
+          b02 * t0[0] + b12 * t0[1] + b22 * t0[2])  # V = B U
+    v1 = (b00 * t1[0] + b01 * t1[1] + b02 * t1[2], b01 * t1[0] + b11 * t1[1] + b12 * t1[2],
+          b02 * t1[0] + b12 * t1[1] + b22 * t1[2])
+    s00 = alpha + t0[0] * v0[0] + t0[1] * v0[1] + t0[2] * v0[2]  # Σ = α̃⊥ I₂ + Uᵀ B U
+    s11 = alpha + t1[0] * v1[0] + t1[1] * v1[1] + t1[2] * v1[2]
+    s01 = t0[0] * v1[0] + t0[1] * v1[1] + t0[2] * v1[2]
+    inv = 1.0 / (s00 * s11 - s01 * s01)
+    i00, i11, i01 = s11 * inv, s00 * inv, -s01 * inv
+    w0 = (v0[0] * i00 + v1[0] * i01, v0[1] * i00 + v1[1] * i01, v0[2] * i00 + v1[2] * i01)  # V Σ⁻¹
+    w1 = (v0[0] * i01 + v1[0] * i11, v0[1] * i01 + v1[1] * i11, v0[2] * i01 + v1[2] * i11)
+    ur0 = t0[0] * rx + t0[1] * ry + t0[2] * rz
+    ur1 = t1[0] * rx + t1[1] * ry + t1[2] * rz
+    q0, q1 = i00 * ur0 + i01 * ur1, i01 * ur0 + i11 * ur1  # Σ⁻¹ Uᵀ r
+    j, k = 3 * n + i, 4 * n + i
+    for a in range(3):
+        for c in range(3):  # I − U Σ⁻¹ Vᵀ = I − t₀ w₀ᵀ − t₁ w₁ᵀ (Σ symmetric)
+            sc[j, 3 * a + c] = (1.0 if a == c else 0.0) - t0[a] * w0[c] - t1[a] * w1[c]
+        sc[k, a] = t0[a] * q0 + t1[a] * q1
+    sc[k, 3] = 1.0
+    return (b00 - w0[0] * v0[0] - w1[0] * v1[0], b11 - w0[1] * v0[1] - w1[1] * v1[1],
+            b22 - w0[2] * v0[2] - w1[2] * v1[2], b01 - w0[0] * v0[1] - w1[0] * v1[1],
+            b02 - w0[0] * v0[2] - w1[0] * v1[2], b12 - w0[1] * v0[2] - w1[1] * v1[2],
+            rx - v0[0] * q0 - v1[0] * q1, ry - v0[1] * q0 - v1[1] * q1, rz - v0[2] * q0 - v1[2] * q1)
 
 
 # ---------------------------------------------------------------------------------------------------------------

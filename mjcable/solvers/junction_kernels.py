@@ -8,6 +8,13 @@ so that a pin at a junction feels the junction's pull). The chains are solved fi
 order; the direct order's chains stay banded) and the junctions after them, Gauss-Seidel (:func:`junction_sweep`):
 a tree of cables converges over the iterations and substeps as a chain does in the Gauss-Seidel order.
 
+A clamped junction of point chains (no frames) keeps the angles between the segments that meet at it: a brace, the
+hard distance constraint C = |x_p − x_q| − d₀ (d₀ their start distance), between each neighbour p of a and each
+neighbour q of b along their cables, projected after the junctions ([M16] Eq. 18 with α = 0:
+Δλ = −C / (w_p + w_q) along n = (x_p − x_q) / |x_p − x_q|). With the segments' lengths held, the triangle a–p–q
+keeps its shape, so the two tangents keep their start angle (free to turn about each other: a chain of points has
+no twist).
+
 The junction's force on particle b is λ / h² ([M16]'s force estimate, λ summed over the substep's iterations);
 ``junction_sum`` adds it up over a step's substeps, as the pins' forces (:func:`junction_forces`), and
 :meth:`mjcable.backends.particle.ParticleBackend.junction_forces` reads the mean.
@@ -20,6 +27,7 @@ References:
 from __future__ import annotations
 
 from mjcable.solvers._kernel_cache import inline as _inline
+from mjcable.solvers.kernels_layout import _TINY_LENGTH
 
 __all__ = ["junction_sweep", "junction_begin", "junction_forces"]
 
@@ -45,6 +53,31 @@ def junction_sweep(S):
                 x[a, comp] -= wa * dlam
             else:
                 react[a, comp] -= dlam
+    if S.brace_p.shape[0]:
+        _brace_sweep(S)
+
+
+@_inline
+def _brace_sweep(S):
+    """Project every brace of the clamped junctions once (module docstring)."""
+    x, w, react, brace_p, brace_d = S.x, S.w, S.react, S.brace_p, S.brace_d
+    for k in range(brace_p.shape[0]):
+        p, q = brace_p[k, 0], brace_p[k, 1]
+        wsum = w[p] + w[q]
+        d0, d1, d2 = x[p, 0] - x[q, 0], x[p, 1] - x[q, 1], x[p, 2] - x[q, 2]
+        length = (d0 * d0 + d1 * d1 + d2 * d2) ** 0.5
+        if wsum == 0.0 or length < _TINY_LENGTH:
+            continue
+        dlam = (brace_d[k] - length) / (wsum * length)  # Δλ / |d|: the correction along d itself
+        for comp, d in ((0, d0), (1, d1), (2, d2)):
+            if w[p] > 0.0:
+                x[p, comp] += w[p] * dlam * d
+            else:
+                react[p, comp] += dlam * d
+            if w[q] > 0.0:
+                x[q, comp] -= w[q] * dlam * d
+            else:
+                react[q, comp] -= dlam * d
 
 
 @_inline

@@ -296,6 +296,8 @@ FIELDS = (
     ("junction_sum", _F2, "(J, 3) N Σ of the step's substep forces on b"),
     ("joined_p", _I2, "(M, 2) every pair of particles the junctions make one point (through others too): the "
      "segment pairs near them never touch"),
+    ("brace_p", _I2, "(Q, 2) a clamped junction's braces: a neighbour of each joined particle (junction_kernels)"),
+    ("brace_d", _F1, "(Q,) m the braces' lengths: their particles' start distance"),
     # winches (winch_kernels; every array (0, ...) without one): the pin row, the cable, which way its free part runs
     # (+1: to higher indices), the spool's last particle, the free end, the host link of a body winch (−1: a world
     # winch), a world winch's point, the cable's direction leaving the winch, the free part r of the first segment,
@@ -468,10 +470,11 @@ def _welds(S, weld_seg, weld_r0, lam_weld):
 
 
 @_jit
-def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p, cable_load):
+def _topology(S, seg_cable, chain_seg, cable_mu, junction_p, lam_j, junction_sum, joined_p, cable_load, brace_p,
+              brace_d):
     S.seg_cable, S.chain_seg, S.cable_mu = seg_cable, chain_seg, cable_mu
     S.junction_p, S.lam_j, S.junction_sum, S.joined_p = junction_p, lam_j, junction_sum, joined_p
-    S.cable_load = cable_load
+    S.cable_load, S.brace_p, S.brace_d = cable_load, brace_p, brace_d
 
 
 @_jit
@@ -537,7 +540,7 @@ _PARTS = (
                       "cs_jac", "cs_band", "cs_rhs", "cs_db")),
     (_welds, ("weld_seg", "weld_r0", "lam_weld")),
     (_topology, ("seg_cable", "chain_seg", "cable_mu", "junction_p", "lam_j", "junction_sum", "joined_p",
-                 "cable_load")),
+                 "cable_load", "brace_p", "brace_d")),
     (_cables, ("cable_par", "seg_radius", "damp")),
     (_winch_topology, ("winch_pin", "winch_cable", "winch_dir", "winch_end", "winch_far", "winch_link")),
     (_winch_motion, ("winch_at", "winch_u", "winch_len", "winch_speed", "winch_rho", "winch_l0")),

@@ -61,7 +61,11 @@ class ParticleSettings:
         up to :data:`MAX_AUTO_ITERATIONS`, at which the cable's expected static strain under the scene's loads stays
         within what the model promises (:func:`mjcable.solvers.convergence.resolve_iterations`); 1 at the default substeps of
         every built-in scene. The Simulator's ``settings`` hold the number it took.
-      order: ``"gauss-seidel"`` (sequential projections), ``"jacobi"`` (all corrections from the same positions,
+      order: ``None`` (default): ``"gauss-seidel"``, or ``"direct"`` where the sweeps can't carry the scene (rings,
+        winches, several cables, or a static strain under the scene's loads that :data:`MAX_AUTO_ITERATIONS`
+        sweeps leave beyond what the model promises: :func:`mjcable.solvers.convergence.resolve_order`; the
+        Simulator's ``settings`` hold the order it took); ``"gauss-seidel"`` (sequential projections), ``"jacobi"``
+        (all corrections from the same positions,
         each constraint applying the share ``omega`` / count, count the most constraints on one of its particles,
         so that its pushes stay equal and opposite and the pins' reactions are the pushes applied) or
         ``"direct"`` (a banded solve of all chain constraints per iteration: tridiagonal, i.e. the Thomas
@@ -82,7 +86,7 @@ class ParticleSettings:
 
     substeps: int = DEFAULT_SUBSTEPS
     iterations: Optional[int] = None
-    order: str = "gauss-seidel"
+    order: Optional[str] = None
     omega: float = 1.0
     bending: str = "auto"
     contact_margin: float = DEFAULT_CONTACT_MARGIN
@@ -93,7 +97,8 @@ class ParticleSettings:
         _validate.integer("substeps", self.substeps, low=1, high=_validate.MAX_SUBSTEPS)
         if self.iterations is not None:
             _validate.integer("iterations", self.iterations, low=1, high=_validate.MAX_SUBSTEPS)
-        _validate.choice("order", self.order, ORDERS)
+        if self.order is not None:
+            _validate.choice("order", self.order, ORDERS)
         _validate.number("omega", self.omega, low=0.0, high=_MAX_OMEGA, low_open=True)
         _validate.choice("bending", self.bending, BENDING_KINDS)
         _validate.number("contact_margin", self.contact_margin, low=0.0, unit="m")

@@ -53,7 +53,7 @@ class Rules:
       geometric_stiffness: with ``order="direct"``, the stretch rows' geometric stiffness λ ∇²C where the tension
         needs it (a KKT solve in positions and multipliers, :mod:`mjcable.solvers.direct_kernels`): for multipliers
         that are forces, k = 1 (XPBD; PBD and Jakobsen at ``stretch_factor`` 1, whose stretch rows are then XPBD's
-        at α = 0).
+        at α = 0), and a limp Cosserat rod's stretch rows (:mod:`mjcable.solvers.cosserat_direct_kernels`).
       rod_compliance: a Cosserat rod's six compliances (stretch–shear: shear, shear, stretch in 1/(N·m);
         bend–twist: bend, bend, twist in 1/(N·m³); :mod:`mjcable.solvers.cosserat_kernels`), which gives every
         segment a material frame; ``None``: no frames (the state's frame fields are empty).
@@ -249,12 +249,10 @@ def topology(scene: Scene, *, frames: bool = False) -> dict:
     """The state's topology fields of ``scene``'s cables (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the
     cable of each segment ``seg_cable`` (n,) (−1: the gap from one cable's last particle to the next one's first),
     each cable's segments ``chain_seg`` (C, 2) [first, stop), its μ ``cable_mu`` (C,), the junctions' particles
-    ``junction_p`` (J, 2), their multipliers and force sums, the pairs of particles they join ``joined_p``, and the
-    particles' sums of the pooled friction cones between cables ``cable_load`` (N, 2).
-
-    Raises:
-      ValueError: a clamped junction without ``frames`` (the point chains join particles, not tangents; a rod with
-        frames welds them, :func:`_rod_arrays`)."""
+    ``junction_p`` (J, 2), their multipliers and force sums, the pairs of particles they join ``joined_p``, the
+    particles' sums of the pooled friction cones between cables ``cable_load`` (N, 2), and the clamped junctions'
+    braces ``brace_p`` (Q, 2) with their lengths ``brace_d`` (Q,) m (none with ``frames``: a rod with frames welds
+    them, :func:`_rod_arrays`)."""
     slices = scene.cable_slices
     n = scene.n_particles - 1
     seg_cable = np.full(n, -1, dtype=np.int64)
@@ -262,16 +260,29 @@ def topology(scene: Scene, *, frames: bool = False) -> dict:
     for c, part in enumerate(slices):
         seg_cable[part.start:part.stop - 1] = c
         chain_seg[c] = part.start, part.stop - 1
-    for j, junction in enumerate(scene.junctions):
-        if junction.clamp and not frames:
-            raise ValueError(f"junctions[{j}]: the particle solvers join two particles at one point (a ball joint), "
-                             f"got clamp=True, which they can't hold yet; use clamp=False, or model 'cosserat'")
     junction_p = np.array([scene.junction_particles(j) for j in range(len(scene.junctions))],
                           dtype=np.int64).reshape(-1, 2)
+    brace_p = _braces(scene, junction_p) if not frames else np.zeros((0, 2), dtype=np.int64)
+    x = np.asarray(scene.particles, dtype=np.float64)
     return dict(seg_cable=seg_cable, chain_seg=chain_seg,
                 cable_mu=np.array([c.friction for c in scene.cables], dtype=np.float64), junction_p=junction_p,
                 lam_j=np.zeros((len(junction_p), 3)), junction_sum=np.zeros((len(junction_p), 3)),
-                joined_p=_joined_pairs(junction_p), cable_load=np.zeros((scene.n_particles, 2)))
+                joined_p=_joined_pairs(junction_p), cable_load=np.zeros((scene.n_particles, 2)), brace_p=brace_p,
+                brace_d=np.linalg.norm(x[brace_p[:, 0]] - x[brace_p[:, 1]], axis=1))
+
+
+def _braces(scene: Scene, junction_p: np.ndarray) -> np.ndarray:
+    """``(Q, 2)`` the braces of ``scene``'s clamped junctions (``junction_p`` (J, 2) their particles): a neighbour of
+    each joined particle along its cable, every such pair (:mod:`mjcable.solvers.junction_kernels`)."""
+    slices = scene.cable_slices
+
+    def neighbours(p):
+        part = next(s for s in slices if s.start <= p < s.stop)
+        return [q for q in (p - 1, p + 1) if part.start <= q < part.stop]
+
+    pairs = [(p, q) for junction, (a, b) in zip(scene.junctions, junction_p.tolist()) if junction.clamp
+             for p in neighbours(a) for q in neighbours(b) if p != q and p != b and q != a]
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
 
 def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
@@ -376,7 +387,8 @@ def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: flo
         rows = _direct_rows(placeholder, "none", no_clamps)
     geometric = settings.order == "direct" and first.geometric_stiffness
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
-    gs_chain = geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
+    gs_chain = (geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
+                and rules.rod_compliance is None)  # (a rod condenses its own: cosserat_direct_kernels)
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
         gs = _direct_rows(seg_cable, bending if first.direct_bending else "none",
                           clamp_pq if first.direct_bending else no_clamps, transverse=True, bends=bends)
