@@ -388,7 +388,7 @@ def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: flo
     geometric = settings.order == "direct" and first.geometric_stiffness
     # a chain of stretch rows only solves its geometric stiffness block by block (direct_kernels), in gs_blocks
     gs_chain = (geometric and bool(np.all(rows["row_kind"] == layout.ROW_STRETCH)) and not scene.rings
-                and rules.rod_compliance is None)  # (a rod condenses its own: cosserat_direct_kernels)
+                and first.rod_compliance is None)  # (a rod condenses its own: cosserat_direct_kernels)
     if geometric and not gs_chain:  # the same rows with the stretch rows' transverse rows
         gs = _direct_rows(seg_cable, bending if first.direct_bending else "none",
                           clamp_pq if first.direct_bending else no_clamps, transverse=True, bends=bends)
