@@ -366,9 +366,10 @@ def _direct_once(S, alpha_s_t, alpha_b_t, alpha_c_t, k_s, k_b, k_c):
 def _direct_once_geometric(S, alpha_s_t, alpha_b_t, alpha_c_t):
     """One direct solve over the rows with the stretch rows' geometric stiffness (the ``gs_`` rows, see
     :func:`_direct_residuals`) from the last solve's multipliers (``lam_gs``), followed by a chord step
-    (:func:`_chord_rhs`; none with rings, :mod:`mjcable.solvers.ring_direct_kernels`); XPBD's (k = 1). In a substep's first solve the multipliers are the previous substep's (λ
-    is reset every substep, and would give M̃ = M), in a later one (the safeguard's, or a second iteration) this
-    substep's so far, which makes it Newton's step. Returns ρ before it."""
+    (:func:`_chord_rhs`; none with rings, :mod:`mjcable.solvers.ring_direct_kernels`); XPBD's (k = 1). In a
+    substep's first solve the multipliers are the previous substep's (λ is reset every substep, and would give
+    M̃ = M), in a later one (the safeguard's, or a second iteration) this substep's so far, which makes it Newton's
+    step. Returns ρ before it."""
     rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs)
     bandwidth = S.par[0].gs_bandwidth
     rho = _direct_residuals(S, rows, alpha_s_t, alpha_b_t, alpha_c_t)

@@ -45,11 +45,11 @@ particle :data:`TURN_SEGMENTS` before the ring to c and from c to the one as far
 Passing. A particle that C_Σ's correction would carry through the centre (b + w_{i+1} Δλ < 0, likewise a) is
 stopped on it (Δλ = −b / w_{i+1}): at b = 0 the ring on segment i (t = 1) and on segment i + 1 (t = 0) are the same
 constraints, so the ring moves on without a jolt (segment i an ordinary one again, its length a = l₀); in the
-direct order a particle that the solve or the prediction carries through a frictionless ring passes and turns onto its new arm
-(:mod:`mjcable.solvers.ring_direct_kernels`). A cable end
-that reaches the centre slips out (``RING_LET_GO``: for good); the stop particle does not pass (``RING_STOPPED``:
-the ring holds it at c, the hard vector constraint x_q = c, as a junction holds its particles). (A test of the
-ring's plane instead misfires where the cable turns by π: its particles near the ring lie in that plane.)
+direct order a particle that the solve or the prediction carries through a frictionless ring passes and turns onto
+its new arm (:mod:`mjcable.solvers.ring_direct_kernels`). A cable end that reaches the centre slips out
+(``RING_LET_GO``: for good); the stop particle does not pass (``RING_STOPPED``: the ring holds it at c, the hard
+vector constraint x_q = c, as a junction holds its particles). (A test of the ring's plane instead misfires where the
+cable turns by π: its particles near the ring lie in that plane.)
 
 References:
   [M16] M. Macklin, M. Müller, N. Chentanez, "XPBD: Position-Based Simulation of Compliant Constrained
