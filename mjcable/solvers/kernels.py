@@ -147,7 +147,8 @@ def _move_pins(S, sub, n_sub):
 @_inline
 def begin_substep(S, sub, n_sub):
     """Predict (:func:`_predict`), move held particles to their pin targets (:func:`_move_pins`) and reset the
-    multipliers (every substep, [M16] Algorithm 1)."""
+    multipliers (every substep, [M16] Algorithm 1); in the direct order a particle that the prediction carried
+    through a ring passes (:func:`~mjcable.solvers.ring_direct_kernels.ring_predicted`)."""
     P = S.par[0]
     kick = _gravity_kick(P)
     _predict(S.x, S.v, S.x0, S.w, S.react, P.h, P.damp, kick * P.gx, kick * P.gy, kick * P.gz)

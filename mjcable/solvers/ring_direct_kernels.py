@@ -22,9 +22,9 @@ Three things a linear solve of C_Σ needs that a segment's does not:
   particle's distance d beyond c is its distance along the next arm.
 * **turning over.** A passed particle continues along its new arm: it and its substep's start x₀ are turned onto it
   (:func:`_turn_over`), the cable's material turning through the point ring. Left on the far side of its old arm, the
-  next linearisation takes it for a longer arm and pulls the cable back (the loads lose their momentum at every
-  pass). A particle that the prediction carries through the centre (against its place at the substep's start)
-  passes the same way before the first solve (:func:`ring_predicted`).
+  next linearisation would take it for a longer arm and pull the cable back. A particle that the prediction carries
+  through the centre (against its place at the substep's start) passes the same way before the first solve
+  (:func:`ring_predicted`).
 
 References:
   [T15] M. Tournier, M. Nesme, B. Gilles, F. Faure, "Stable Constrained Dynamics", ACM TOG 34(4), 2015.

@@ -19,9 +19,8 @@ vectors uₐ = (xᵢ − c) / a, u_b = (xᵢ₊₁ − c) / b:
   own multiplier ``lam_s[i]``, λ_Δ ``ring_lam``. In the Gauss-Seidel and Jacobi orders both are projected after
   the chains and junctions in every iteration (a ring between heavy loads converges slowly so: the Simulator warns);
   the direct order solves a frictionless ring's C_Σ as the segment's row of its banded solve, with the loads
-  (:mod:`mjcable.solvers.ring_direct_kernels`); with friction it projects both after the solve (C_Δ converges only
-  beside C_Σ there: with C_Σ in the solve, a sliding ring's acceleration came out 88 % above the kinetic capstan
-  law's).
+  (:mod:`mjcable.solvers.ring_direct_kernels`); with friction it projects both after the solve (C_Δ converges
+  against the loads only beside C_Σ: ``docs/measurements.md``).
 
 Friction (the capstan law for a point ring). A cable turning by θ through the ring, tensions T₁ and T₂ either side
 along unit tangents t₁ (arriving) and t₂ (leaving), pulls the ring with F = T₁ t₁ − T₂ t₂ (the ring's force on it is
@@ -110,9 +109,9 @@ def ring_begin(S):
 @_inline
 def _slide(S, r, alpha_tilde, k):
     """Ring ``r`` (sliding): C_Σ (unless the direct order's solve holds it, frictionless:
-    :mod:`mjcable.solvers.ring_direct_kernels`),
-    then (μ > 0) C_Δ with λ_Δ clamped to the capstan bound (module docstring). A particle that C_Σ's correction would
-    carry through the centre stops on it and passes (:func:`_pass`)."""
+    :mod:`mjcable.solvers.ring_direct_kernels`), then (μ > 0) C_Δ with λ_Δ clamped to the capstan bound (module
+    docstring). A particle that C_Σ's correction would carry through the centre stops on it and passes
+    (:func:`_pass`)."""
     if (S.par[0].order != ORDER_DIRECT or S.ring_mu[r] > 0.0) and _slide_length(S, r, alpha_tilde, k):
         return
     _slide_friction(S, r, alpha_tilde, k)
