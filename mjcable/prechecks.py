@@ -42,7 +42,7 @@ fix (a ``ValueError`` where no result could be right):
   pulley radius that holds it; within it, a warning;
 * **rings on a particle solver's sweeps**: the rings' projection after the chains' Gauss-Seidel or Jacobi sweeps
   carries heavy loads through a ring only over many iterations, irregularly (:func:`_rings`); the direct order
-  converges them (the Atwood machine through a ring within 0.16 % on all three solvers, ``docs/measurements.md``).
+  converges them (the Atwood machine through a ring within 0.12 % on all three solvers, ``docs/measurements.md``).
 
 Self-collision with a radius beyond half a segment works where it can (geoms that overlap at rest never collide:
 :meth:`mjcable.scene.CableSpec.overlapping_neighbours`) and is refused by ``flexrod``, whose flex cannot skip them.
@@ -164,7 +164,7 @@ def _rings(scene: Scene, entry: catalog.ModelEntry, settings, dt: float) -> None
     how = f"order={settings.order!r}, {settings.iterations} iteration(s) × {settings.substeps} substeps at dt={dt:g} s"
     _warn(f"{entry.name}: with {how}, the rings' projection after the chain's sweeps carries the loads either side "
           f"of a ring through it only over many iterations: {RING_MEASURED}; use order='direct' (the chain solved at "
-          f"once: 0.16 %)")
+          f"once: 0.12 %)")
 
 
 def _stated_bending(scene: Scene, rules, settings) -> Optional[float]:

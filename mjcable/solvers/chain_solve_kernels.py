@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
-from mjcable.solvers.kernels_layout import _TINY_LENGTH
+from mjcable.solvers.kernels_layout import _TINY_LENGTH, ROW_CURVATURE, ROW_DISTANCE, ROW_STRETCH, ROW_TRANSVERSE
 
 # Relative compliance added to every row of the direct solve: it keeps hard, redundant rows (e.g. inextensible
 # stretch with hard curvature bending: more rows than degrees of freedom) solvable and is far below any physical one.
@@ -24,6 +24,19 @@ _DIRECT_RESIDUAL_FLOOR = 1e-4
 # tension near zero): they would move the step by less than that fraction, and a world-frame block holding both
 # would lose the axial row's digits to the transverse ones' (its entries carry both).
 _TRANSVERSE_NEGLIGIBLE = 1e6
+
+
+@_inline
+def row_step(kind, dlam, k_s, k_b, k_c):
+    """A row's step of its multiplier from the solve's Δλ: scaled by its kind's factor k (PBD, Jakobsen); a
+    transverse row's Δλ unscaled (it moves the particles, but is no multiplier of its own)."""
+    if kind == ROW_STRETCH:
+        return k_s * dlam
+    if kind == ROW_DISTANCE or kind == ROW_CURVATURE:
+        return k_b * dlam
+    if kind == ROW_TRANSVERSE:
+        return dlam
+    return k_c * dlam
 
 
 @_inline

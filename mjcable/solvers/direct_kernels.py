@@ -10,9 +10,10 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.chain_solve_kernels import (_DIRECT_REGULARIZATION, _DIRECT_RESIDUAL_FLOOR,
-                                                  _chain_geometric_solve, _perpendicular)
+                                                  _chain_geometric_solve, _perpendicular, row_step)
 from mjcable.solvers.constraint_kernels import (_bend_clamp_sweeps, body_clamp_turn, body_turn_dot, stretch_sweep,
                                                  turns_body)
+from mjcable.solvers.ring_direct_kernels import ring_crossings, ring_row, ring_soft_move, ring_soften
 from mjcable.solvers.kernels_layout import (_TINY_LENGTH, BEND_DISTANCE, BEND_NONE, ROW_CLAMP, ROW_CURVATURE,
                                             ROW_DISTANCE, ROW_STRETCH, ROW_TRANSVERSE)
 
@@ -118,7 +119,7 @@ def _direct_residuals(S, rows):
     while the system keeps the Schur form (J W Jᵀ + α̃) Δλ = rhs over the extended rows, banded. A compressed row
     (λ ≥ 0) has none (its rows are left out: M̃ stays positive definite)."""
     x, w = S.x, S.w
-    row_kind, row_idx, row_p, _, _, band, grad, rhs, row_cable = rows
+    row_kind, row_idx, row_p, prow, pslot, band, grad, rhs, row_cable = rows
     lam_gs = S.lam_gs
     lam_s, lam_d, lam_b, lam_c = S.lam_s, S.lam_d, S.lam_b, S.lam_c
     rest, rest_d = S.rest, S.rest_d
@@ -146,12 +147,16 @@ def _direct_residuals(S, rows):
                 at = cp.at_s
                 lam = lam_s[idx]
                 rl = rest[idx]
+                row_p[r, 2] = -1  # (a ring's hub, while a ring holds the segment)
             else:
                 lam = lam_d[idx]
                 rl = rest_d[idx]
             cval = length - rl
-            if rl < 0.0:  # a segment a ring holds: left out (ring_kernels projects it after the solve)
-                cval, at, rl = 0.0, 0.0, -rl
+            if rl < 0.0:  # a segment a ring holds: the length through the ring (ring_direct_kernels.ring_row)
+                held, cval = ring_row(S, idx, r, grad, row_p, prow, pslot)
+                rl = -rl
+                if not held:  # left out (a ring with friction projects it after the solve)
+                    at = 0.0
             elif length > _TINY_LENGTH:
                 grad[r, 0, 0], grad[r, 0, 1], grad[r, 0, 2] = dx / length, dy / length, dz / length
                 grad[r, 1, 0], grad[r, 1, 1], grad[r, 1, 2] = -dx / length, -dy / length, -dz / length
@@ -230,6 +235,8 @@ def _schur_assemble(S, rows):
             band[r, 0] += scale2 * body_turn_dot(S, kc, m, m, e0, e1, e2)
             if m == 1:
                 band[r, 1] += scale2 * body_turn_dot(S, kc, 1, 0, e0, e1, e2)
+    if S.ring_p.shape[0]:  # the rings' particles: their arms' geometric stiffness (ring_direct_kernels)
+        ring_soften(S, rows)
     for r in range(nrow):
         if band[r, 0] == 0.0:  # a hard row on held particles only (or a released clamp): Δλ = 0
             band[r, 0] = 1.0
@@ -255,6 +262,8 @@ def _direct_apply(S, rows, unit):
             k_c = 1.0 if unit else cp.k_c
             body_clamp_turn(S, row_idx[r] // 2, row_idx[r] % 2, 2.0 * cp.inv_l0sq * k_c * rhs[r],
                             x[q, 0] - x[p, 0], x[q, 1] - x[p, 1], x[q, 2] - x[p, 2])
+    if S.ring_p.shape[0]:  # the rings' particles: their arms' geometric stiffness (ring_direct_kernels)
+        ring_soft_move(S, rows, unit)
     cables = S.cable_par
     for r in range(rhs.shape[0]):
         kind = row_kind[r]
@@ -263,19 +272,14 @@ def _direct_apply(S, rows, unit):
         if not unit:
             cp = cables[row_cable[r]]
             k_s, k_b, k_c = cp.k_s, cp.k_b, cp.k_c
+        dlam = row_step(kind, rhs[r], k_s, k_b, k_c)
         if kind == ROW_STRETCH:
-            dlam = k_s * rhs[r]
             lam_s[idx] += dlam
         elif kind == ROW_DISTANCE:
-            dlam = k_b * rhs[r]
             lam_d[idx] += dlam
         elif kind == ROW_CURVATURE:
-            dlam = k_b * rhs[r]
             lam_b[idx // 3, idx % 3] += dlam
-        elif kind == ROW_TRANSVERSE:
-            dlam = rhs[r]
-        else:
-            dlam = k_c * rhs[r]
+        elif kind == ROW_CLAMP:
             lam_c[idx // 2, idx % 2] += dlam
         if dlam == 0.0:
             continue
@@ -333,7 +337,7 @@ def _chord_rhs(S, rows):
         idx = row_idx[r]
         cp = cables[row_cable[r]]
         if kind == ROW_STRETCH:
-            if rest[idx] < 0.0:  # a segment a ring holds
+            if rest[idx] < 0.0:  # a segment a ring holds (no chord step with rings: _direct_once_geometric)
                 continue
             rhs[r] = -(length - rest[idx]) - cp.at_s * lam_s[idx]
             rho = max(rho, abs(rhs[r]) / rest[idx])
@@ -361,6 +365,8 @@ def _direct_once(S):
         _schur_assemble(S, rows)
         banded_ldlt_solve(S.band, S.rhs, P.bandwidth)
         _direct_apply(S, rows, False)
+        if S.ring_p.shape[0]:
+            ring_crossings(S, S.grad, S.prow)
     if P.geometric:  # the next solve's rows (in the next substep from these multipliers, reset by then)
         P.gs_stiff = _tension_is_stiff(S.lam_s, S.rest, S.w)
         if P.gs_stiff:
@@ -373,9 +379,10 @@ def _direct_once(S):
 def _direct_once_geometric(S):
     """One direct solve over the rows with the stretch rows' geometric stiffness (the ``gs_`` rows, see
     :func:`_direct_residuals`) from the last solve's multipliers (``lam_gs``), followed by a chord step
-    (:func:`_chord_rhs`); XPBD's (k = 1). In a substep's first solve the multipliers are the previous substep's (λ
-    is reset every substep, and would give M̃ = M), in a later one (the safeguard's, or a second iteration) this
-    substep's so far, which makes it Newton's step. Returns ρ before it."""
+    (:func:`_chord_rhs`; none with rings, :mod:`mjcable.solvers.ring_direct_kernels`); XPBD's (k = 1). In a
+    substep's first solve the multipliers are the previous substep's (λ is reset every substep, and would give
+    M̃ = M), in a later one (the safeguard's, or a second iteration) this substep's so far, which makes it Newton's
+    step. Returns ρ before it."""
     rows = (S.gs_row_kind, S.gs_row_idx, S.gs_row_p, S.gs_prow, S.gs_pslot, S.gs_band, S.gs_grad, S.gs_rhs,
             S.gs_row_cable)
     bandwidth = S.par[0].gs_bandwidth
@@ -384,6 +391,9 @@ def _direct_once_geometric(S):
     _banded_ldlt_factor(S.gs_band, bandwidth)
     _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
     _direct_apply(S, rows, True)
+    if S.ring_p.shape[0]:  # a particle carried through a ring passes; no chord step (its C_Σ has a kink at c)
+        ring_crossings(S, S.gs_grad, S.gs_prow)
+        return rho
     if _chord_rhs(S, rows) <= _DIRECT_RESIDUAL_FLOOR:  # a chord step (see _chord_rhs)
         _banded_ldlt_substitute(S.gs_band, S.gs_rhs, bandwidth)
         _direct_apply(S, rows, True)

@@ -57,6 +57,7 @@ from mjcable.solvers.impulse_kernels import collect_impulses
 from mjcable.solvers.junction_kernels import junction_begin, junction_forces, junction_sweep
 from mjcable.solvers.winch_kernels import winch_advance
 from mjcable.solvers.ring_kernels import ring_begin, ring_end, ring_sweep
+from mjcable.solvers.ring_direct_kernels import ring_predicted
 from mjcable.solvers.host_kernels import host_after, host_before, host_begin_step, host_end_step
 from mjcable.solvers.kernels_layout import (
     BEND_NONE, ORDER_DIRECT, ORDER_GAUSS_SEIDEL, ORDER_JACOBI, PAIRS_OFF,
@@ -147,7 +148,8 @@ def _move_pins(S, sub, n_sub):
 @_inline
 def begin_substep(S, sub, n_sub):
     """Predict (:func:`_predict`), move held particles to their pin targets (:func:`_move_pins`) and reset the
-    multipliers (every substep, [M16] Algorithm 1)."""
+    multipliers (every substep, [M16] Algorithm 1); in the direct order a particle that the prediction carried
+    through a ring passes (:func:`~mjcable.solvers.ring_direct_kernels.ring_predicted`)."""
     P = S.par[0]
     kick = _gravity_kick(P)
     _predict(S.x, S.v, S.x0, S.w, S.react, P.h, S.damp, kick * P.gx, kick * P.gy, kick * P.gz)
@@ -166,6 +168,8 @@ def begin_substep(S, sub, n_sub):
         junction_begin(S)
     if S.ring_p.shape[0]:
         ring_begin(S)
+        if P.order == ORDER_DIRECT:
+            ring_predicted(S)
 
 
 @_inline

@@ -319,6 +319,8 @@ FIELDS = (
     ("ring_cable", _I1, "(R,) the cable (a row of chain_seg) through it"),
     ("ring_lam", _F1, "(R,) kg·m the material point's multiplier of the substep (the length's: lam_s)"),
     ("ring_dir", _F2, "(R, 3) unit direction of the cable's pull on the ring (a body ring's inverse mass)"),
+    ("ring_tension", _F1, "(R,) kg·m the length's multiplier at the last substep's end (the direct solve's "
+     "geometric stiffness of the arms in the next substep's first solve)"),
 )
 
 
@@ -501,8 +503,8 @@ def _rings(S, ring_p, ring_pin, ring_seg, ring_t, ring_mode, ring_mu, ring_stop,
 
 
 @_jit
-def _ring_multipliers(S, ring_lam, ring_dir):
-    S.ring_lam, S.ring_dir = ring_lam, ring_dir
+def _ring_multipliers(S, ring_lam, ring_dir, ring_tension):
+    S.ring_lam, S.ring_dir, S.ring_tension = ring_lam, ring_dir, ring_tension
 
 
 @_jit
@@ -545,7 +547,7 @@ _PARTS = (
     (_winch_topology, ("winch_pin", "winch_cable", "winch_dir", "winch_end", "winch_far", "winch_link")),
     (_winch_motion, ("winch_at", "winch_u", "winch_len", "winch_speed", "winch_rho", "winch_l0")),
     (_rings, ("ring_p", "ring_pin", "ring_seg", "ring_t", "ring_mode", "ring_mu", "ring_stop", "ring_cable")),
-    (_ring_multipliers, ("ring_lam", "ring_dir")),
+    (_ring_multipliers, ("ring_lam", "ring_dir", "ring_tension")),
 )
 assert sorted(n for _, names in _PARTS for n in names) == sorted(n for n, _, _ in FIELDS)
 

@@ -16,10 +16,11 @@ vectors uₐ = (xᵢ − c) / a, u_b = (xᵢ₊₁ − c) / b:
 * the material point, C_Δ = (a − b) − (2t − 1) l₀ (∇ᵢ = uₐ, ∇ᵢ₊₁ = −u_b, ∇_c = u_b − uₐ), with t the anchor held
   through the substep: its multiplier λ_Δ is half the tension jump across the ring, T₁ − T₂ = −2 λ_Δ / h² (T₁ on
   the side of xᵢ). Each [M16] Eq. 18 update, with the segment's compliance α and factor k; λ_Σ is the segment's
-  own multiplier ``lam_s[i]``, λ_Δ ``ring_lam``. Both are projected after the chains and junctions in every
-  iteration, Gauss-Seidel (the direct order leaves the ring's segment out of its banded solve: a linear solve
-  would carry a particle through the centre unseen, see passing below), so that a ring between heavy loads
-  converges over the iterations as a junction does.
+  own multiplier ``lam_s[i]``, λ_Δ ``ring_lam``. In the Gauss-Seidel and Jacobi orders both are projected after
+  the chains and junctions in every iteration (a ring between heavy loads converges slowly so: the Simulator warns);
+  the direct order solves a frictionless ring's C_Σ as the segment's row of its banded solve, with the loads
+  (:mod:`mjcable.solvers.ring_direct_kernels`); with friction it projects both after the solve (C_Δ converges
+  against the loads only beside C_Σ: ``docs/measurements.md``).
 
 Friction (the capstan law for a point ring). A cable turning by θ through the ring, tensions T₁ and T₂ either side
 along unit tangents t₁ (arriving) and t₂ (leaving), pulls the ring with F = T₁ t₁ − T₂ t₂ (the ring's force on it is
@@ -42,10 +43,12 @@ particle :data:`TURN_SEGMENTS` before the ring to c and from c to the one as far
 
 Passing. A particle that C_Σ's correction would carry through the centre (b + w_{i+1} Δλ < 0, likewise a) is
 stopped on it (Δλ = −b / w_{i+1}): at b = 0 the ring on segment i (t = 1) and on segment i + 1 (t = 0) are the same
-constraints, so the ring moves on without a jolt (segment i an ordinary one again, its length a = l₀). A cable end
-that reaches the centre slips out (``RING_LET_GO``: for good); the stop particle does not pass (``RING_STOPPED``:
-the ring holds it at c, the hard vector constraint x_q = c, as a junction holds its particles). (A test of the
-ring's plane instead misfires where the cable turns by π: its particles near the ring lie in that plane.)
+constraints, so the ring moves on without a jolt (segment i an ordinary one again, its length a = l₀); in the
+direct order a particle that the solve or the prediction carries through a frictionless ring passes and turns onto
+its new arm (:mod:`mjcable.solvers.ring_direct_kernels`). A cable end that reaches the centre slips out
+(``RING_LET_GO``: for good); the stop particle does not pass (``RING_STOPPED``: the ring holds it at c, the hard
+vector constraint x_q = c, as a junction holds its particles). (A test of the ring's plane instead misfires where the
+cable turns by π: its particles near the ring lie in that plane.)
 
 References:
   [M16] M. Macklin, M. Müller, N. Chentanez, "XPBD: Position-Based Simulation of Compliant Constrained
@@ -63,7 +66,7 @@ import math
 
 from mjcable.solvers._kernel_cache import inline as _inline, jit as _jit
 from mjcable.solvers.constraint_kernels import push, xpbd_multiplier
-from mjcable.solvers.kernels_layout import _TINY_LENGTH, RING_LET_GO, RING_SLIDING, RING_STOPPED
+from mjcable.solvers.kernels_layout import _TINY_LENGTH, ORDER_DIRECT, RING_LET_GO, RING_SLIDING, RING_STOPPED
 
 __all__ = ["ring_begin", "ring_sweep", "ring_end", "TURN_SEGMENTS"]
 
@@ -105,8 +108,19 @@ def ring_begin(S):
 
 @_inline
 def _slide(S, r, alpha_tilde, k):
-    """Ring ``r`` (sliding): C_Σ, then (μ > 0) C_Δ with λ_Δ clamped to the capstan bound (module docstring). A
-    particle that C_Σ's correction would carry through the centre stops on it and passes (:func:`_pass`)."""
+    """Ring ``r`` (sliding): C_Σ (unless the direct order's solve holds it, frictionless:
+    :mod:`mjcable.solvers.ring_direct_kernels`), then (μ > 0) C_Δ with λ_Δ clamped to the capstan bound (module
+    docstring). A particle that C_Σ's correction would carry through the centre stops on it and passes
+    (:func:`_pass`)."""
+    if (S.par[0].order != ORDER_DIRECT or S.ring_mu[r] > 0.0) and _slide_length(S, r, alpha_tilde, k):
+        return
+    _slide_friction(S, r, alpha_tilde, k)
+
+
+@_inline
+def _slide_length(S, r, alpha_tilde, k):
+    """C_Σ of ring ``r``: one projection, a particle it would carry through the centre stopped on it (:func:`_pass`).
+    Returns whether one passed."""
     x, w, react, rest, lam_s = S.x, S.w, S.react, S.rest, S.lam_s
     i, c = S.ring_seg[r], S.ring_p[r]
     j = i + 1
@@ -114,7 +128,7 @@ def _slide(S, r, alpha_tilde, k):
     la, ax, ay, az = _arm(x, i, c)
     lb, bx, by, bz = _arm(x, j, c)
     if la == 0.0 and lb == 0.0:
-        return
+        return False
     wi, wj, wc = w[i], w[j], w[c]
     nx, ny, nz = ax + bx, ay + by, az + bz
     wsum = (wi if la > 0.0 else 0.0) + (wj if lb > 0.0 else 0.0) + wc * (nx * nx + ny * ny + nz * nz)
@@ -133,7 +147,18 @@ def _slide(S, r, alpha_tilde, k):
         S.ring_dir[r, 0], S.ring_dir[r, 1], S.ring_dir[r, 2] = nx / norm, ny / norm, nz / norm
     if step != 0:
         _pass(S, r, step)
-        return
+        return True
+    return False
+
+
+@_inline
+def _slide_friction(S, r, alpha_tilde, k):
+    """C_Δ of ring ``r`` with λ_Δ clamped to the capstan bound (μ > 0), else its anchor follows the cable."""
+    x, w, react, rest, lam_s = S.x, S.w, S.react, S.rest, S.lam_s
+    i, c = S.ring_seg[r], S.ring_p[r]
+    j = i + 1
+    l0 = -rest[i]
+    wi, wj, wc = w[i], w[j], w[c]
     mu = S.ring_mu[r]
     if mu == 0.0:
         _follow(S, r)
@@ -229,9 +254,12 @@ def ring_sweep(S):
 
 @_jit
 def ring_end(S):
-    """A substep's end: a ring with friction whose λ_Δ reached the capstan bound slid: its anchor moves to where the
-    cable passes its centre."""
+    """A substep's end: each sliding ring's length multiplier kept (``ring_tension``: the next substep's first direct
+    solve's geometric stiffness, :mod:`mjcable.solvers.ring_direct_kernels`); a ring with friction whose λ_Δ reached
+    the capstan bound slid: its anchor moves to where the cable passes its centre."""
     for r in range(S.ring_p.shape[0]):
+        if S.ring_mode[r] == RING_SLIDING:
+            S.ring_tension[r] = S.lam_s[S.ring_seg[r]]
         if S.ring_mode[r] != RING_SLIDING or S.ring_mu[r] == 0.0:
             continue
         i = S.ring_seg[r]

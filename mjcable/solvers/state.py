@@ -331,7 +331,7 @@ def ring_fields(scene: Scene) -> dict:
                 ring_mode=np.full(count, layout.RING_SLIDING, dtype=np.int64),
                 ring_mu=np.array([ring.friction for ring in scene.rings], dtype=np.float64), ring_stop=stop,
                 ring_cable=np.array([ring.cable for ring in scene.rings], dtype=np.int64), ring_lam=np.zeros(count),
-                ring_dir=pulls)
+                ring_dir=pulls, ring_tension=np.zeros(count))
 
 
 def chain_arrays(scene: Scene, rules: tuple, settings: ParticleSettings, dt: float) -> StateArrays:
