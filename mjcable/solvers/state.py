@@ -22,10 +22,10 @@ from scipy.spatial.transform import Rotation
 from mjcable.scene import CableSpec, Scene
 from mjcable.solvers import kernels_layout as layout
 from mjcable.solvers.settings import ParticleSettings
+from mjcable.solvers.topology import topology
 
 __all__ = ["Rules", "StateArrays", "cable_rules", "chain_arrays", "ring_fields", "shared_cable", "single_cable",
-           "topology", "quat_mul",
-           "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
+           "quat_mul", "material_frames", "start_frames", "darboux", "ORDER_CODES", "BENDING_CODES"]
 
 ORDER_CODES = {"gauss-seidel": layout.ORDER_GAUSS_SEIDEL, "jacobi": layout.ORDER_JACOBI,
                "direct": layout.ORDER_DIRECT}
@@ -243,58 +243,6 @@ def _cable_params(scene: Scene, rules: tuple, h: float) -> np.ndarray:
                   r.alpha_stretch / h2, r.alpha_bend / h2, r.alpha_clamp / h2, r.k_stretch, r.k_bend, r.k_clamp,
                   max(near, 2), r.bending != "none")
     return out
-
-
-def topology(scene: Scene, *, frames: bool = False) -> dict:
-    """The state's topology fields of ``scene``'s cables (:data:`~mjcable.solvers.kernels_layout.FIELDS`): the
-    cable of each segment ``seg_cable`` (n,) (−1: the gap from one cable's last particle to the next one's first),
-    each cable's segments ``chain_seg`` (C, 2) [first, stop), its μ ``cable_mu`` (C,), the junctions' particles
-    ``junction_p`` (J, 2), their multipliers and force sums, the pairs of particles they join ``joined_p``, the
-    particles' sums of the pooled friction cones between cables ``cable_load`` (N, 2), and the clamped junctions'
-    braces ``brace_p`` (Q, 2) with their lengths ``brace_d`` (Q,) m (none with ``frames``: a rod with frames welds
-    them, :func:`_rod_arrays`)."""
-    slices = scene.cable_slices
-    n = scene.n_particles - 1
-    seg_cable = np.full(n, -1, dtype=np.int64)
-    chain_seg = np.zeros((len(slices), 2), dtype=np.int64)
-    for c, part in enumerate(slices):
-        seg_cable[part.start:part.stop - 1] = c
-        chain_seg[c] = part.start, part.stop - 1
-    junction_p = np.array([scene.junction_particles(j) for j in range(len(scene.junctions))],
-                          dtype=np.int64).reshape(-1, 2)
-    brace_p = _braces(scene, junction_p) if not frames else np.zeros((0, 2), dtype=np.int64)
-    x = np.asarray(scene.particles, dtype=np.float64)
-    return dict(seg_cable=seg_cable, chain_seg=chain_seg,
-                cable_mu=np.array([c.friction for c in scene.cables], dtype=np.float64), junction_p=junction_p,
-                lam_j=np.zeros((len(junction_p), 3)), junction_sum=np.zeros((len(junction_p), 3)),
-                joined_p=_joined_pairs(junction_p), cable_load=np.zeros((scene.n_particles, 2)), brace_p=brace_p,
-                brace_d=np.linalg.norm(x[brace_p[:, 0]] - x[brace_p[:, 1]], axis=1))
-
-
-def _braces(scene: Scene, junction_p: np.ndarray) -> np.ndarray:
-    """``(Q, 2)`` the braces of ``scene``'s clamped junctions (``junction_p`` (J, 2) their particles): a neighbour of
-    each joined particle along its cable, every such pair (:mod:`mjcable.solvers.junction_kernels`)."""
-    slices = scene.cable_slices
-
-    def neighbours(p):
-        part = next(s for s in slices if s.start <= p < s.stop)
-        return [q for q in (p - 1, p + 1) if part.start <= q < part.stop]
-
-    pairs = [(p, q) for junction, (a, b) in zip(scene.junctions, junction_p.tolist()) if junction.clamp
-             for p in neighbours(a) for q in neighbours(b) if p != q and p != b and q != a]
-    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
-
-
-def _joined_pairs(junction_p: np.ndarray) -> np.ndarray:
-    """``(M, 2)`` every pair of particles that the junctions ``junction_p`` (J, 2) make one point, directly or through
-    other junctions (three cables joined by two junctions make three pairs)."""
-    group = {}  # particle -> the set of particles at its point
-    for a, b in junction_p.tolist():
-        joined = group.get(a, {a}) | group.get(b, {b})
-        for p in joined:
-            group[p] = joined
-    pairs = {(a, b) for members in map(frozenset, group.values()) for a in members for b in members if a < b}
-    return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
 
 
 def ring_fields(scene: Scene) -> dict:
@@ -522,7 +470,7 @@ def _rod_arrays(scene: Scene, clamps: list, *, welds: bool) -> dict:
     ``scene``'s start curve: frames without twist, at rest; the rest Darboux vectors zero (``rest_shape="straight"``)
     or the start curve's (``"start"``); each segment's rotational inertia that of its slice of the rod, ρ l₀ (I, I, J)
     = m (r²/4, r²/4, r²/2); a clamp's frame starts as its segment's. Several cables lie one after the other, as the
-    chains do (:func:`topology`): the gap segment between two cables has the identity frame, which no constraint
+    chains do (:func:`~mjcable.solvers.topology.topology`): the gap segment between two cables has the identity frame, which no constraint
     turns, and the bend–twist rows beside it rest at zero (they are not solved).
 
     Raises:
