@@ -75,6 +75,10 @@ def rules(scene: Scene, settings: ParticleSettings, h: float) -> Rules:
     """The kernels' parameters of ``cosserat`` for ``scene`` (see the module docstring)."""
     del settings, h  # XPBD's compliances do not depend on the step: α̃ = α / h² is formed in the kernels
     limp = max(*scene.cables[0].bending_stiffnesses, scene.cables[0].torsion_stiffness) <= _LIMP
+    # a limp rod's geometric stiffness (cosserat_direct_kernels) with several cables only: it holds a cable pinned
+    # taut under a rope lying on it (without it the rope slid off at 0.85 of the capstan law), one cable's scenes run
+    # as before without it, and it doubles a solve's cost wherever the tension is stiff (a 1600-segment hang: 0.39
+    # against 0.17 s per simulated s; docs/measurements.md, 2026-11-27)
     return Rules(verlet_start=False, alpha_stretch=0.0, alpha_bend=0.0, alpha_clamp=0.0, k_stretch=1.0, k_bend=1.0,
                  k_clamp=1.0, bending="none", rod_compliance=compliances(scene), rod_limp=limp,
-                 geometric_stiffness=limp)
+                 geometric_stiffness=limp and len(scene.cables) > 1)
