@@ -26,10 +26,10 @@ def catenary():
 
 
 # The quick suite (the README's test command, under 5 minutes from a clean clone on 2 cores) runs the tests
-# parametrized over models on a point chain, a rod and a native model (xpbd, cosserat, joints); their cases on the other
-# models run with the slow tests (`-m slow`, which CI runs too). MJCABLE_QUICK_ALL_MODELS=1 keeps every model's cases
-# quick (CI's MuJoCo-4 job, which runs no slow tests).
-SLOW_MODELS = frozenset({"springs", "composite", "flexrod", "jakobsen", "pbd"})
+# parametrized over models on a point chain and a rod (xpbd, cosserat; the native models have their own tests in it);
+# their cases on the other models run with the slow tests (`-m slow`, which CI runs too). MJCABLE_QUICK_ALL_MODELS=1
+# keeps every model's cases quick (CI's MuJoCo-4 job, which runs no slow tests).
+SLOW_MODELS = frozenset({"springs", "joints", "composite", "flexrod", "jakobsen", "pbd"})
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest's -m selection reads the marks
