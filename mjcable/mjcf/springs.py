@@ -41,6 +41,7 @@ from mjcable.errors import PhysicsWarning
 from mjcable.mjcf import snap, world
 from mjcable.scene import Scene
 from mjcable.solvers import convergence
+from mjcable.worlds import pulley
 
 __all__ = ["build", "spring_stiffness", "static_strain", "precheck", "STABILITY_FRACTION", "BEND_REFERENCE_ANGLE",
            "STRAIN_WARNING", "START_OVERSHOOT"]
@@ -51,10 +52,17 @@ STRAIN_WARNING = 0.05  # static strain of a nominally inextensible cable beyond 
 # the peak strain over the static one where the loads start from rest on unstretched springs (an undamped spring
 # under a step load; measured 1.4-1.6 on the Atwood machine through a ring, docs/measurements.md, 2026-11-27)
 START_OVERSHOOT = 2.0
-#: what :func:`precheck` warns with for a ring with rim friction (docs/measurements.md, 2026-11-27)
+#: what :func:`precheck` refuses a ring with rim friction with (docs/measurements.md, 2026-11-27)
 RING_CREEP = ("measured: boxes of 2 and 1 kg through a ring with μ = 0.3 at 0.85 of the capstan law creep at 12-22 "
-              "mm/s over 0.3-1 s at 80 to 640 substeps, 2.6 cm in all, where the other models hold within 2 mm/s; "
-              "lighter loads hold sooner")
+              "mm/s over 0.3-1 s at 80 to 640 substeps, 2.6 cm in all, where the other models hold within 2 mm/s")
+# the peak strain (START_OVERSHOOT times the static one) beyond which a rope carrying loads over a pulley or through a
+# ring is refused: the loads bounce on the capped springs and the Atwood machine's acceleration is off (measured,
+# docs/measurements.md, 2026-11-27: over a pulley at R = 0.8 m 37, 8.5 and 2.1 % off at peaks 0.083, 0.049 and 0.021
+# (10, 13, 20 substeps), 0.2 % at 0.005 (40); through a ring 5.5 % at 0.039 (80), 0.47 % at 0.0098 (160))
+ROUTED_STRAIN = 0.01
+#: what :func:`precheck` refuses a rope over a pulley or through a ring with
+ROUTED_MEASURED = ("measured on the Atwood machines: over a pulley 37 %, 8.5 % and 2.1 % off at peak strains 0.083, "
+                   "0.049 and 0.021, 0.2 % at 0.005; through a ring 5.5 % at 0.039, 0.47 % at 0.0098")
 _AXES = np.eye(3)
 
 
@@ -116,31 +124,39 @@ def precheck(scene: Scene, settings, dt: float) -> None:
     substeps that hold it (elsewhere the estimate is an upper bound, and warns). A nominally
     inextensible cable (``stretch_stiffness=None``) stretched by more than :data:`STRAIN_WARNING` (a hanging one's
     :data:`START_OVERSHOOT` times its static strain: its loads bounce it on the soft springs) warns with them (the
-    strain falls with the timestep squared). A ring with rim friction warns that the rope creeps through it
+    strain falls with the timestep squared). A hanging rope over a pulley or through a ring is refused beyond a peak
+    strain of :data:`ROUTED_STRAIN` (its loads bounce on the springs), and a ring with rim friction always
     (:data:`RING_CREEP`)."""
     if any(ring.friction > 0.0 for ring in scene.rings):
-        warnings.warn(f"springs: a ring's rim friction holds its rope only after the rope creeps through it while it "
-                      f"settles on the rim ({RING_CREEP}); for a ring that holds at once use joints, composite, flexrod "
-                      f"or a particle solver", PhysicsWarning, stacklevel=4)
+        raise ValueError(f"springs: a ring's rim friction does not hold its rope, which creeps through it while it "
+                         f"settles on the rim at any substeps ({RING_CREEP}); use joints, composite, flexrod or a "
+                         f"particle solver for a ring with friction")
     timestep = dt / settings.substeps
     strain = static_strain(scene, timestep)
     if strain is None:
         return
     inextensible = scene.cable.stretch_stiffness is None
     promise, fail, _ = monitor.strain_limits(scene, scene.cable.stretch_stiffness)
-    target = STRAIN_WARNING if inextensible else promise
     hanging = convergence.hangs(scene)  # (else the loads pull only partly along it)
     peak = START_OVERSHOOT * strain if hanging else strain
+    routed = hanging and bool(scene.rings or (scene.world is not None and pulley.pulleys(scene.world.model)))
+    target = ROUTED_STRAIN if routed else STRAIN_WARNING if inextensible else promise
     need = math.ceil(settings.substeps * math.sqrt(peak / target))
     fix = (f"substeps >= {need} at dt={dt:g} s" if need <= MAX_SUBSTEPS else
            f"a smaller dt (a MuJoCo timestep of at most {dt / need:.3g} s)")
-    if START_OVERSHOOT * strain > fail and hanging:
+    if peak > fail and hanging:
         raise ValueError(
             f"springs: the cable's springs, capped at the stable limit for MuJoCo's timestep {timestep:g} s (stretch "
             f"{_stiffness(scene, timestep)[0]:.4g} N/m), would stretch to a static strain of about {strain:.3g} under "
             f"{_loads(scene)}, and to about {peak:.3g} as the loads start from rest, beyond {fail:g} (the physics "
             f"monitor's failing strain: the cable tears); use {fix} (a strain within {target:g}), or a model with "
             f"inextensible segments")
+    if routed and peak > ROUTED_STRAIN:
+        raise ValueError(
+            f"springs: the rope carries its loads over a pulley or through a ring on springs capped at the stable limit "
+            f"for MuJoCo's timestep {timestep:g} s: a static strain of about {strain:.3g} under {_loads(scene)}, about "
+            f"{peak:.3g} as the loads start from rest, and they bounce on it beyond {ROUTED_STRAIN:g} "
+            f"({ROUTED_MEASURED}); use {fix}, or joints, composite or a particle solver")
     if inextensible and peak > STRAIN_WARNING:
         start = f", and to about {peak:.3g} as the loads start from rest" if peak > strain else ""
         warnings.warn(f"springs: the inextensible cable's springs, capped at the stable stiffness for timestep "
