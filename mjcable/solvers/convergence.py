@@ -386,16 +386,20 @@ def resolve_order(scene: Scene, entry, settings, dt: float):
     takes: ``"direct"`` where Gauss-Seidel sweeps can't carry the scene at the model's stated stiffness, else
     ``"gauss-seidel"``. The sweeps can't carry rings (their projection after the chains carries the loads either side
     only over many, irregular iterations), winches (the loaded rope stays long and its load bounces), several cables
-    (a cable pinned taut under another sags; no strain estimate is made for them) or a cable whose expected static
-    strain under its loads stays beyond :data:`STRAIN_WARNING` at :data:`MAX_AUTO_ITERATIONS` iterations (or the
-    iterations the user gave): measured in ``docs/measurements.md``. Other settings are returned as they are."""
+    (a cable pinned taut under another sags; no strain estimate is made for them) or, with the automatic iterations
+    (``iterations=None``), a cable whose expected static strain under its loads stays beyond :data:`STRAIN_WARNING`
+    at :data:`MAX_AUTO_ITERATIONS` iterations: measured in ``docs/measurements.md``. Iterations the user gives keep
+    the sweeps there (and :func:`mjcable.prechecks.check` warns, with the direct order among the fixes). Other settings
+    are returned as they are."""
     if entry.family != "particle" or settings.order is not None:
         return settings
     direct = dataclasses.replace(settings, order="direct")
     if scene.rings or len(scene.cables) > 1 or any(pin.kind == "winch" for pin in scene.pins):
         return direct
     sweeps = dataclasses.replace(settings, order="gauss-seidel")
-    most = sweeps if sweeps.iterations is not None else dataclasses.replace(sweeps, iterations=MAX_AUTO_ITERATIONS)
+    if settings.iterations is not None:
+        return sweeps
+    most = dataclasses.replace(sweeps, iterations=MAX_AUTO_ITERATIONS)
     return sweeps if strain_within(strain_estimate(scene, entry, dt)(most)) else direct
 
 

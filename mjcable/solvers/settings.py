@@ -62,8 +62,9 @@ class ParticleSettings:
         within what the model promises (:func:`mjcable.solvers.convergence.resolve_iterations`); 1 at the default substeps of
         every built-in scene. The Simulator's ``settings`` hold the number it took.
       order: ``None`` (default): ``"gauss-seidel"``, or ``"direct"`` where the sweeps can't carry the scene (rings,
-        winches, several cables, or a static strain under the scene's loads that :data:`MAX_AUTO_ITERATIONS`
-        sweeps leave beyond what the model promises: :func:`mjcable.solvers.convergence.resolve_order`; the
+        winches, several cables, or with ``iterations=None`` a static strain under the scene's loads that
+        :data:`MAX_AUTO_ITERATIONS` sweeps leave beyond what the model promises:
+        :func:`mjcable.solvers.convergence.resolve_order`; the
         Simulator's ``settings`` hold the order it took); ``"gauss-seidel"`` (sequential projections), ``"jacobi"``
         (all corrections from the same positions,
         each constraint applying the share ``omega`` / count, count the most constraints on one of its particles,
