@@ -38,6 +38,7 @@ import numpy as np
 from scipy import linalg
 
 from mjcable.scene import Scene
+from mjcable.solvers import winches
 from mjcable.solvers.settings import MAX_AUTO_ITERATIONS, ParticleSettings
 from mjcable.solvers.state import Rules
 
@@ -394,7 +395,7 @@ def resolve_order(scene: Scene, entry, settings, dt: float):
     if entry.family != "particle" or settings.order is not None:
         return settings
     direct = dataclasses.replace(settings, order="direct")
-    if scene.rings or len(scene.cables) > 1 or any(pin.kind == "winch" for pin in scene.pins):
+    if scene.rings or len(scene.cables) > 1 or winches.winch_pins(scene):
         return direct
     sweeps = dataclasses.replace(settings, order="gauss-seidel")
     if settings.iterations is not None:

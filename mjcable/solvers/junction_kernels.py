@@ -27,7 +27,7 @@ References:
 from __future__ import annotations
 
 from mjcable.solvers._kernel_cache import inline as _inline
-from mjcable.solvers.kernels_layout import _TINY_LENGTH
+from mjcable.solvers.constraint_kernels import push, stretch_step_rigid
 
 __all__ = ["junction_sweep", "junction_begin", "junction_forces"]
 
@@ -59,25 +59,14 @@ def junction_sweep(S):
 
 @_inline
 def _brace_sweep(S):
-    """Project every brace of the clamped junctions once (module docstring)."""
+    """Project every brace of the clamped junctions once (module docstring): the chain's hard stretch step."""
     x, w, react, brace_p, brace_d = S.x, S.w, S.react, S.brace_p, S.brace_d
     for k in range(brace_p.shape[0]):
         p, q = brace_p[k, 0], brace_p[k, 1]
-        wsum = w[p] + w[q]
         d0, d1, d2 = x[p, 0] - x[q, 0], x[p, 1] - x[q, 1], x[p, 2] - x[q, 2]
-        length = (d0 * d0 + d1 * d1 + d2 * d2) ** 0.5
-        if wsum == 0.0 or length < _TINY_LENGTH:
-            continue
-        dlam = (brace_d[k] - length) / (wsum * length)  # Δλ / |d|: the correction along d itself
-        for comp, d in ((0, d0), (1, d1), (2, d2)):
-            if w[p] > 0.0:
-                x[p, comp] += w[p] * dlam * d
-            else:
-                react[p, comp] += dlam * d
-            if w[q] > 0.0:
-                x[q, comp] -= w[q] * dlam * d
-            else:
-                react[q, comp] -= dlam * d
+        sigma, _ = stretch_step_rigid(d0, d1, d2, w[p] + w[q], brace_d[k])
+        push(x, react, w[p], p, sigma * d0, sigma * d1, sigma * d2)
+        push(x, react, w[q], q, -sigma * d0, -sigma * d1, -sigma * d2)
 
 
 @_inline
